@@ -1,0 +1,79 @@
+"""Input validation shared by every stage: one clear message naming what was wrong."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def as_rng(rng: Any) -> np.random.Generator:
+    """Turn ``rng`` (a ``numpy.random.Generator``, an int seed or None) into a Generator."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or isinstance(rng, (int, np.integer)):
+        return np.random.default_rng(rng)
+    msg = f"rng must be a numpy.random.Generator or an int seed; got {type(rng).__name__}"
+    raise ValueError(msg)
+
+
+def check_finite_number(name: str, value: Any, *, low: float | None = None,
+                        high: float | None = None, low_open: bool = False,
+                        high_open: bool = False) -> float:
+    """Check a scalar is finite and in range; return it as float.
+
+    ``low_open`` / ``high_open`` make the bound exclusive.
+    """
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        msg = f"{name} must be a number; got {value!r}"
+        raise ValueError(msg) from None
+    if not math.isfinite(x):
+        msg = f"{name} must be finite; got {value!r}"
+        raise ValueError(msg)
+    if low is not None and (x < low or (low_open and x == low)):
+        op = ">" if low_open else ">="
+        msg = f"{name} must be {op} {low:g}; got {x:g}"
+        raise ValueError(msg)
+    if high is not None and (x > high or (high_open and x == high)):
+        op = "<" if high_open else "<="
+        msg = f"{name} must be {op} {high:g}; got {x:g}"
+        raise ValueError(msg)
+    return x
+
+
+def check_frames(frames: Any, *, name: str = "frames", min_frames: int = 1,
+                 allow_gray: bool = False, check_range: bool = True) -> np.ndarray:
+    """Validate a frame sequence and return it as a NumPy array (no copy when possible).
+
+    Accepts ``(T, H, W, 3)`` (and ``(T, H, W)`` when ``allow_gray``).  Float frames must be
+    finite and in ``[0, 1]``; ``uint8`` frames are accepted as they are.
+    """
+    arr = np.asarray(frames)
+    shape_ok = (arr.ndim == 4 and arr.shape[-1] == 3) or (allow_gray and arr.ndim == 3)
+    if not shape_ok:
+        want = "(T, H, W, 3) or (T, H, W)" if allow_gray else "(T, H, W, 3)"
+        msg = f"{name} must be {want}; got shape {arr.shape}"
+        raise ValueError(msg)
+    if arr.shape[0] < min_frames:
+        msg = f"{name} must hold at least {min_frames} frames; got {arr.shape[0]}"
+        raise ValueError(msg)
+    if arr.shape[1] < 1 or arr.shape[2] < 1:
+        msg = f"{name} must have non-empty frames; got shape {arr.shape}"
+        raise ValueError(msg)
+    if arr.dtype == np.uint8:
+        return arr
+    if not np.issubdtype(arr.dtype, np.floating):
+        msg = f"{name} must be float32 in [0, 1] or uint8; got dtype {arr.dtype}"
+        raise ValueError(msg)
+    if check_range:
+        if not np.all(np.isfinite(arr)):
+            msg = f"{name} holds NaN or infinite values"
+            raise ValueError(msg)
+        lo, hi = float(arr.min()), float(arr.max())
+        if lo < 0.0 or hi > 1.0:
+            msg = f"{name} must be in [0, 1]; got values in [{lo:.4g}, {hi:.4g}]"
+            raise ValueError(msg)
+    return arr

@@ -1,0 +1,131 @@
+"""The ``wavealt`` command line: thin; parses, calls the library, prints.
+
+Errors from the library (``ValueError``, ``FileNotFoundError``) become one line on stderr
+and exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from wavealt import __version__
+
+
+def _versions() -> str:
+    import numpy as np
+
+    try:
+        import torch
+        tv = torch.__version__
+    except Exception:  # torch is optional for --version; report why it is missing
+        tv = "not importable"
+    return f"wavealt {__version__}\nnumpy {np.__version__}\ntorch {tv}\npython {sys.version.split()[0]}"
+
+
+def _print_version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    if value and not ctx.resilient_parsing:
+        click.echo(_versions())
+        ctx.exit()
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True,
+              callback=_print_version, help="Print wavealt, NumPy and torch versions.")
+def cli() -> None:
+    """Camera altimetry over the sea, through sun glint."""
+
+
+def _range(text: str | None, name: str) -> tuple[float, float] | None:
+    """Parse ``LO,HI`` or a single value into a range."""
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        msg = f"--{name} must be a number or LO,HI; got {text!r}"
+        raise ValueError(msg) from None
+    if len(vals) == 1:
+        return vals[0], vals[0]
+    if len(vals) != 2:
+        msg = f"--{name} must be a number or LO,HI; got {text!r}"
+        raise ValueError(msg)
+    return vals[0], vals[1]
+
+
+@cli.command()
+@click.argument("out", type=click.Path(path_type=Path))
+@click.option("--preset", default="paper", show_default=True, help="Scenario preset.")
+@click.option("--sequences", type=int, default=None, help="Number of sequences (preset's by default).")
+@click.option("--frames", type=int, default=None, help="Frames per sequence [preset: 10].")
+@click.option("--size", type=int, default=None, help="Image side in pixels [preset: 224].")
+@click.option("--fps", type=float, default=None, help="Frame rate [preset: 30].")
+@click.option("--fov-deg", type=float, default=None, help="Horizontal field of view [preset: 60].")
+@click.option("--seed", type=int, default=None, help="Dataset seed [preset: 42].")
+@click.option("--altitude-m", default=None, help="Altitude range LO,HI in metres (max 15).")
+@click.option("--wind-speed-mps", default=None, help="Wind speed range LO,HI.")
+@click.option("--glint-severity", default=None, help="Glint severity range LO,HI (full-scale units).")
+@click.option("--camera-speed-mps", default=None, help="Camera drift speed range LO,HI.")
+@click.option("--workers", type=int, default=1, show_default=True, help="Parallel processes.")
+@click.option("--save-surface", is_flag=True, help="Also write surface/<id>.npz ground truth.")
+@click.option("--figures/--no-figures", default=True, show_default=True,
+              help="Write paper Fig. 2 and Fig. 3 into OUT/figures.")
+def simulate(out: Path, preset: str, sequences: int | None, frames: int | None,
+             size: int | None, fps: float | None, fov_deg: float | None, seed: int | None,
+             altitude_m: str | None, wind_speed_mps: str | None, glint_severity: str | None,
+             camera_speed_mps: str | None, workers: int, save_surface: bool,
+             figures: bool) -> None:
+    """Generate a paired clean/glinty dataset into OUT."""
+    from wavealt.scenario import preset_config
+    from wavealt.simulate import simulate_dataset
+
+    config = preset_config(
+        preset, sequences=sequences, frames=frames, size=size, fps=fps, fov_deg=fov_deg,
+        seed=seed, altitude_m=_range(altitude_m, "altitude-m"),
+        wind_speed_mps=_range(wind_speed_mps, "wind-speed-mps"),
+        glint_severity=_range(glint_severity, "glint-severity"),
+        camera_speed_mps=_range(camera_speed_mps, "camera-speed-mps"))
+    simulate_dataset(out, config, workers=workers, save_surface=save_surface)
+    click.echo(f"dataset: {out} ({config.sequences} sequences x {config.frames} frames, "
+               f"{config.size}x{config.size} px)")
+    if figures:
+        from wavealt.plots import dataset_figures
+        for p in dataset_figures(out, out / "figures"):
+            click.echo(f"figure: {p}")
+
+
+@cli.command()
+@click.argument("dataset", type=click.Path(path_type=Path))
+@click.option("--out", type=click.Path(path_type=Path), default=None,
+              help="Folder for the figures [DATASET/figures].")
+@click.option("--sequence", "seq_id", default=None, help="Sequence to show [first test sequence].")
+def figures(dataset: Path, out: Path | None, seq_id: str | None) -> None:
+    """Draw the dataset figures (paper Fig. 2 and Fig. 3)."""
+    from wavealt.plots import dataset_figures
+
+    for p in dataset_figures(dataset, out or dataset / "figures", sequence_id=seq_id):
+        click.echo(f"figure: {p}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: run the CLI, turning library errors into one line and exit code 2."""
+    try:
+        cli.main(args=argv, prog_name="wavealt", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("wavealt: aborted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        click.echo(f"wavealt: error: {exc.format_message()}", err=True)
+        sys.exit(exc.exit_code)
+    except (ValueError, FileNotFoundError, NotADirectoryError, IsADirectoryError) as exc:
+        click.echo(f"wavealt: error: {exc}", err=True)
+        sys.exit(2)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

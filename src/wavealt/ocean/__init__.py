@@ -1,0 +1,1 @@
+"""Ocean surface: wave spectra, surface synthesis and time evolution, optics."""

@@ -1,0 +1,216 @@
+"""Scenario parameters, their sampling, and the simulation config with its presets.
+
+A dataset is a pure function of its :class:`SimConfig`: sequence ``i`` draws its scenario
+and its waves from its own seed ``derive_seed(config.seed, i)``, so any subset can be
+regenerated alone.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from wavealt._checks import check_finite_number
+from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
+
+MIN_SIZE_PX = 32
+
+
+def derive_seed(seed: int, index: int) -> int:
+    """Seed of sequence ``index`` of a dataset seeded ``seed`` (independent streams)."""
+    return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything that defines one sequence (one manifest row, less its split)."""
+
+    altitude_m: float
+    wind_speed_mps: float
+    wind_dir_deg: float
+    sun_zenith_deg: float
+    sun_azimuth_deg: float
+    glint_severity: float
+    fps: float
+    focal_px: float
+    frames: int
+    seed: int
+    camera_speed_mps: float = 0.0
+    camera_dir_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_finite_number("altitude_m", self.altitude_m, low=0.0, low_open=True,
+                            high=MAX_ALTITUDE_M)
+        check_finite_number("wind_speed_mps", self.wind_speed_mps, low=0.0, low_open=True)
+        check_finite_number("sun_zenith_deg", self.sun_zenith_deg, low=0.0, high=90.0,
+                            high_open=True)
+        check_finite_number("glint_severity", self.glint_severity, low=0.0)
+        check_finite_number("fps", self.fps, low=0.0, low_open=True)
+        check_finite_number("camera_speed_mps", self.camera_speed_mps, low=0.0)
+        if self.frames < 2:
+            msg = f"frames must be >= 2; got {self.frames}"
+            raise ValueError(msg)
+
+    @property
+    def camera_velocity_mps(self) -> tuple[float, float]:
+        a = math.radians(self.camera_dir_deg)
+        return self.camera_speed_mps * math.cos(a), self.camera_speed_mps * math.sin(a)
+
+
+Range = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Generator config: sizes, timing, optics and the ranges scenarios are drawn from.
+
+    Every range ``(lo, hi)`` is sampled uniformly; ``lo == hi`` fixes the value.
+    """
+
+    preset: str = "paper"
+    sequences: int = 200
+    frames: int = 10
+    size: int = 224
+    fov_deg: float = 60.0
+    fps: float = 30.0
+    seed: int = 42
+    split_seed: int = 42
+    split: tuple[float, float, float] = (0.70, 0.15, 0.15)
+    altitude_m: Range = (1.0, 5.0)
+    wind_speed_mps: Range = (3.0, 10.0)
+    wind_dir_deg: Range = (0.0, 360.0)
+    sun_zenith_deg: Range = (10.0, 40.0)
+    sun_azimuth_deg: Range = (0.0, 360.0)
+    glint_severity: Range = (0.5, 1.0)
+    camera_speed_mps: Range = (0.0, 0.0)
+    camera_dir_deg: Range = (0.0, 360.0)
+    clean_glint_severity: float = 0.0
+    domain_pad: float = 2.0
+    water_rgb: tuple[float, float, float] = (0.004, 0.020, 0.030)
+    sky_rgb: tuple[float, float, float] = (0.60, 0.75, 0.95)
+    display_rgb: tuple[float, float, float] = (0.10, 0.30, 0.40)
+    contrast: float = 0.10
+    refractive_index: float = 1.34
+    lobe_exponent: float = 80.0
+
+    def __post_init__(self) -> None:
+        if self.preset not in PRESETS:
+            msg = f"unknown preset {self.preset!r}; expected one of {', '.join(sorted(PRESETS))}"
+            raise ValueError(msg)
+        if int(self.sequences) != self.sequences or self.sequences < 1:
+            msg = f"sequences must be a positive integer; got {self.sequences!r}"
+            raise ValueError(msg)
+        if int(self.frames) != self.frames or self.frames < 2:
+            msg = f"frames must be an integer >= 2; got {self.frames!r}"
+            raise ValueError(msg)
+        if int(self.size) != self.size or self.size < MIN_SIZE_PX:
+            msg = f"size must be an integer >= {MIN_SIZE_PX} px; got {self.size!r}"
+            raise ValueError(msg)
+        check_finite_number("fov_deg", self.fov_deg, low=0.0, high=180.0, low_open=True,
+                            high_open=True)
+        check_finite_number("fps", self.fps, low=0.0, low_open=True)
+        check_finite_number("domain_pad", self.domain_pad, low=1.0)
+        if len(self.split) != 3 or any(f < 0 for f in self.split) or not math.isclose(sum(self.split), 1.0):
+            msg = f"split must be three non-negative fractions summing to 1; got {self.split!r}"
+            raise ValueError(msg)
+        bounds = {
+            "altitude_m": (0.0, MAX_ALTITUDE_M, True),
+            "wind_speed_mps": (0.0, None, True),
+            "sun_zenith_deg": (0.0, 90.0, False),
+            "glint_severity": (0.0, None, False),
+            "camera_speed_mps": (0.0, None, False),
+            "wind_dir_deg": (None, None, False),
+            "sun_azimuth_deg": (None, None, False),
+            "camera_dir_deg": (None, None, False),
+        }
+        for name, (lo, hi, lo_open) in bounds.items():
+            r = getattr(self, name)
+            if len(r) != 2 or r[0] > r[1]:
+                msg = f"{name} must be a range (low, high) with low <= high; got {r!r}"
+                raise ValueError(msg)
+            for x in r:
+                check_finite_number(name, x, low=lo, high=hi, low_open=lo_open,
+                                    high_open=(name == "sun_zenith_deg"))
+
+    @property
+    def focal_px(self) -> float:
+        return focal_px_from_fov(self.size, self.fov_deg)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SimConfig:
+        """Build from a dict; unknown keys are an error (a typo must not pass silently)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            msg = f"unknown config key(s): {', '.join(unknown)}; expected some of {', '.join(sorted(names))}"
+            raise ValueError(msg)
+        kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return cls(**kw)
+
+    def replace(self, **changes: Any) -> SimConfig:
+        return dataclasses.replace(self, **changes)
+
+    def sample_scenario(self, index: int) -> Scenario:
+        """The scenario of sequence ``index`` (a pure function of the config and index)."""
+        seed = derive_seed(self.seed, index)
+        rng = np.random.default_rng(seed)
+
+        def draw(r: Range) -> float:
+            lo, hi = r
+            return float(lo + (hi - lo) * rng.random())
+
+        return Scenario(
+            altitude_m=draw(self.altitude_m),
+            wind_speed_mps=draw(self.wind_speed_mps),
+            wind_dir_deg=draw(self.wind_dir_deg),
+            sun_zenith_deg=draw(self.sun_zenith_deg),
+            sun_azimuth_deg=draw(self.sun_azimuth_deg),
+            glint_severity=draw(self.glint_severity),
+            fps=float(self.fps),
+            focal_px=self.focal_px,
+            frames=int(self.frames),
+            seed=seed,
+            camera_speed_mps=draw(self.camera_speed_mps),
+            camera_dir_deg=draw(self.camera_dir_deg),
+        )
+
+    def splits(self) -> list[str]:
+        """Split of each sequence: a permutation seeded ``split_seed``, cut 70/15/15."""
+        n = int(self.sequences)
+        order = np.random.default_rng(self.split_seed).permutation(n)
+        n_train = int(round(self.split[0] * n))
+        n_val = int(round(self.split[1] * n))
+        labels = ["test"] * n
+        for rank, i in enumerate(order):
+            labels[i] = "train" if rank < n_train else ("val" if rank < n_train + n_val else "test")
+        return labels
+
+
+#: Presets: overrides of the SimConfig defaults.  ``paper`` is the paper's dataset design
+#: (§3.1: altitudes 1–5 m, 224x224, 10 frames, 70/15/15 split with seed 42; 200 sequences so
+#: that the test split holds 30, as in Table 2).
+PRESETS: dict[str, dict[str, Any]] = {
+    "paper": {},
+}
+
+
+def preset_config(name: str, **overrides: Any) -> SimConfig:
+    """The config of preset ``name`` with ``overrides`` (None values are ignored)."""
+    if name not in PRESETS:
+        msg = f"unknown preset {name!r}; expected one of {', '.join(sorted(PRESETS))}"
+        raise ValueError(msg)
+    kw = dict(PRESETS[name])
+    kw.update({k: v for k, v in overrides.items() if v is not None})
+    kw["preset"] = name
+    return SimConfig(**kw)
+
+
+__all__ = ["PRESETS", "Scenario", "SimConfig", "derive_seed", "preset_config"]

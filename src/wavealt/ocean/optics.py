@@ -84,6 +84,23 @@ class Optics:
                 check_finite_number(name, x, low=0.0)
 
 
+def _power(x: np.ndarray, exponent: float) -> np.ndarray:
+    """``x ** exponent`` by repeated squaring when the exponent is a small integer."""
+    e = float(exponent)
+    if e != int(e) or not 1 <= e <= 1024:
+        return x ** np.float32(e)
+    e = int(e)
+    result = None
+    base = x
+    while e:
+        if e & 1:
+            result = base.copy() if result is None else result * base
+        e >>= 1
+        if e:
+            base = base * base
+    return result
+
+
 def shade(slope_x: np.ndarray, slope_y: np.ndarray, view: np.ndarray, sun: np.ndarray,
           optics: Optics) -> tuple[np.ndarray, np.ndarray]:
     """Per-pixel Fresnel reflectance ``F(N . c)`` and specular lobe ``G_s(N, H)``.
@@ -108,8 +125,8 @@ def shade(slope_x: np.ndarray, slope_y: np.ndarray, view: np.ndarray, sun: np.nd
     half = view + sun.astype(np.float32)
     half /= np.linalg.norm(half, axis=-1, keepdims=True)
     n_dot_h = (-slope_x * half[..., 0] - slope_y * half[..., 1] + half[..., 2]) * inv
-    lobe = np.maximum(n_dot_h, 0.0) ** optics.lobe_exponent
-    return fres.astype(np.float32), lobe.astype(np.float32)
+    lobe = _power(np.maximum(n_dot_h, 0.0).astype(np.float32), optics.lobe_exponent)
+    return fres.astype(np.float32, copy=False), lobe
 
 
 def clean_radiance(fresnel: np.ndarray, optics: Optics) -> np.ndarray:
@@ -119,15 +136,21 @@ def clean_radiance(fresnel: np.ndarray, optics: Optics) -> np.ndarray:
     return water + fresnel[..., np.newaxis] * sky
 
 
-def exposure(radiance: np.ndarray, optics: Optics) -> tuple[np.ndarray, float]:
+def exposure(fresnel: np.ndarray, optics: Optics) -> tuple[np.ndarray, float]:
     """Sequence-wide black level (per channel) and gain mapping radiance to display units.
 
-    Returns ``(offset_rgb, gain)`` with ``display = offset + gain * radiance``.
+    Computed from the Fresnel term of the whole clean sequence: with ``I = I_water + F I_sky``
+    the mean radiance is ``I_water + mean(F) I_sky`` and the luminance (channel mean) has the
+    standard deviation ``std(F) mean(I_sky)``.  Returns ``(offset_rgb, gain)`` with
+    ``display = offset + gain * radiance``.
     """
-    mean_rgb = radiance.reshape(-1, 3).mean(axis=0, dtype=np.float64)
-    lum_std = float(radiance.mean(axis=-1).std(dtype=np.float64))
+    water = np.asarray(optics.water_rgb, dtype=np.float64)
+    sky = np.asarray(optics.sky_rgb, dtype=np.float64)
+    f_mean = float(fresnel.mean(dtype=np.float64))
+    f_std = float(fresnel.std(dtype=np.float64))
+    lum_std = f_std * float(sky.mean())
     gain = optics.contrast / lum_std if lum_std > 0 else 1.0
-    offset = np.asarray(optics.display_rgb, dtype=np.float64) - gain * mean_rgb
+    offset = np.asarray(optics.display_rgb, dtype=np.float64) - gain * (water + f_mean * sky)
     return offset.astype(np.float32), float(gain)
 
 
@@ -153,13 +176,19 @@ def render_pair(slope_x: np.ndarray, slope_y: np.ndarray, view: np.ndarray, sun:
     -------
     clean, glinty : (T, H, W, 3) float32 arrays in [0, 1]
     """
-    check_finite_number("glint_severity", glint_severity, low=0.0)
-    check_finite_number("clean_glint_severity", clean_glint_severity, low=0.0)
+    g = check_finite_number("glint_severity", glint_severity, low=0.0)
+    g0 = check_finite_number("clean_glint_severity", clean_glint_severity, low=0.0)
     fres, lobe = shade(slope_x, slope_y, view, sun, optics)
-    rad = clean_radiance(fres, optics)
-    offset, gain = exposure(rad, optics)
-    base = offset + gain * rad
+    offset, gain = exposure(fres, optics)
+    # display = offset + gain (I_water + F I_sky) = a + b F, per channel
+    a = (offset + gain * np.asarray(optics.water_rgb, dtype=np.float32)).astype(np.float32)
+    b = (gain * np.asarray(optics.sky_rgb, dtype=np.float32)).astype(np.float32)
+    base = fres[..., np.newaxis] * b
+    base += a
     lobe3 = lobe[..., np.newaxis]
-    clean = np.clip(base + clean_glint_severity * lobe3, 0.0, 1.0) if clean_glint_severity else np.clip(base, 0.0, 1.0)
-    glinty = np.clip(base + glint_severity * lobe3, 0.0, 1.0)
-    return clean.astype(np.float32), glinty.astype(np.float32)
+    glinty = base + np.float32(g) * lobe3
+    np.clip(glinty, 0.0, 1.0, out=glinty)
+    if g0:
+        base += np.float32(g0) * lobe3
+    np.clip(base, 0.0, 1.0, out=base)
+    return base, glinty

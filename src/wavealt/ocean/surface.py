@@ -75,21 +75,25 @@ class OceanSurface:
         self.k = np.sqrt(self.kx**2 + self.ky**2)
         self.dk = 2.0 * np.pi / (self.n * self.dx_m)
 
-        if spectrum is None:
-            s = phillips(self.kx, self.ky, wind_speed_mps=self.wind_speed_mps,
-                         wind_dir_rad=self.wind_dir_rad)
-        else:
-            s = np.broadcast_to(np.asarray(spectrum(self.kx, self.ky), dtype=np.float64),
-                                (self.n, self.n))
         downwind = (self.kx * np.cos(self.wind_dir_rad) + self.ky * np.sin(self.wind_dir_rad)) > 0
         nyq = self.n // 2
         downwind[nyq, :] = False
         downwind[:, nyq] = False
         self.downwind = downwind
-        xi = rng.standard_normal((2, self.n, self.n))
-        c = np.sqrt(np.where(downwind, s, 0.0) * self.dk**2 / 2.0) * (xi[0] + 1j * xi[1]) / np.sqrt(2.0)
+        # Work on the downwind modes alone: their mirrors at -k follow by Hermitian symmetry.
+        iy, ix = np.nonzero(downwind)
+        kx_d, ky_d = k1[ix], k1[iy]
+        if spectrum is None:
+            s = phillips(kx_d, ky_d, wind_speed_mps=self.wind_speed_mps,
+                         wind_dir_rad=self.wind_dir_rad)
+        else:
+            s = np.broadcast_to(np.asarray(spectrum(self.kx, self.ky), dtype=np.float64),
+                                (self.n, self.n))[iy, ix]
+        xi = rng.standard_normal((2, iy.size))
+        c = np.sqrt(s * self.dk**2 / 2.0) * (xi[0] + 1j * xi[1]) / np.sqrt(2.0)
+        k_d = np.sqrt(kx_d**2 + ky_d**2)
         # Cox–Munk rescaling, paper eq. (2): mean-square slope over the domain, all k.
-        ms_slope = 2.0 * np.sum(self.k**2 * np.abs(c) ** 2)
+        ms_slope = 2.0 * np.sum(k_d**2 * np.abs(c) ** 2)
         target = (float(cox_munk_slope_variance(self.wind_speed_mps)) if slope_variance is None
                   else check_finite_number("slope_variance", slope_variance, low=0.0,
                                            low_open=True))
@@ -97,10 +101,16 @@ class OceanSurface:
             msg = "the spectrum holds no energy on this grid; widen the domain or change the wind"
             raise ValueError(msg)
         self.scale = float(np.sqrt(target / ms_slope))
-        self.amplitudes = c * self.scale
         omega_fn = deep_water_omega if dispersion is None else dispersion
-        self.omega = np.where(downwind, omega_fn(self.k), 0.0)
         self._neg = _negated_index(self.n)
+        keep = c != 0
+        self._iy, self._ix = iy[keep], ix[keep]
+        self._amp = c[keep] * self.scale
+        self._omega = np.asarray(omega_fn(k_d[keep]), dtype=np.float64)
+        self.amplitudes = np.zeros((self.n, self.n), dtype=np.complex128)
+        self.amplitudes[self._iy, self._ix] = self._amp
+        self.omega = np.zeros((self.n, self.n))
+        self.omega[self._iy, self._ix] = self._omega
 
     # -- spectral state ------------------------------------------------------------------
     def _downwind_state(self, t: float, velocity: tuple[float, float]) -> np.ndarray:
@@ -152,25 +162,25 @@ class OceanSurface:
         times = np.asarray(times_s, dtype=np.float64).ravel()
         r0, c0 = (self.n - ch) // 2, (self.n - cw) // 2
         n = self.n
-        iy, ix = np.nonzero(self.downwind & (self.amplitudes != 0))
+        iy, ix = self._iy, self._ix
         pos = iy * n + ix
         neg = self._neg[iy] * n + self._neg[ix]
         kx, ky = self.kx[0, ix], self.ky[iy, 0]
-        amp = self.amplitudes[iy, ix]
+        amp = self._amp
         grad_pos = (1j * kx - ky).astype(np.complex64)
         grad_neg = (-1j * kx + ky).astype(np.complex64)  # gradient operator at -k
-        phase_rate = self.omega[iy, ix] - (kx * velocity_mps[0] + ky * velocity_mps[1])
+        phase_rate = self._omega - (kx * velocity_mps[0] + ky * velocity_mps[1])
         steps = np.diff(times)
         uniform = steps.size > 0 and np.allclose(steps, steps[0], rtol=0, atol=1e-12)
-        rot = np.exp(-1j * phase_rate * steps[0]) if uniform else None
+        rot = np.exp(-1j * phase_rate * steps[0]).astype(np.complex64) if uniform else None
         spec = np.zeros(n * n, dtype=np.complex64)
         state = None
         for t in times:
             if state is None or rot is None:
-                state = amp * np.exp(-1j * phase_rate * t)
+                state = (amp * np.exp(-1j * phase_rate * t)).astype(np.complex64)
             else:
                 state = state * rot
-            d = state.astype(np.complex64)
+            d = state
             dc = np.conj(d)
             spec[pos] = grad_pos * d
             spec[neg] = grad_neg * dc

@@ -72,7 +72,6 @@ class OceanSurface:
         k1 = 2.0 * np.pi * np.fft.fftfreq(self.n, d=self.dx_m)
         self.kx = k1[np.newaxis, :]
         self.ky = k1[:, np.newaxis]
-        self.k = np.sqrt(self.kx**2 + self.ky**2)
         self.dk = 2.0 * np.pi / (self.n * self.dx_m)
 
         downwind = (self.kx * np.cos(self.wind_dir_rad) + self.ky * np.sin(self.wind_dir_rad)) > 0
@@ -107,26 +106,48 @@ class OceanSurface:
         self._iy, self._ix = iy[keep], ix[keep]
         self._amp = c[keep] * self.scale
         self._omega = np.asarray(omega_fn(k_d[keep]), dtype=np.float64)
-        self.amplitudes = np.zeros((self.n, self.n), dtype=np.complex128)
-        self.amplitudes[self._iy, self._ix] = self._amp
-        self.omega = np.zeros((self.n, self.n))
-        self.omega[self._iy, self._ix] = self._omega
+        self._pos = self._iy * self.n + self._ix
+        self._negpos = self._neg[self._iy] * self.n + self._neg[self._ix]
+        self._kx_d, self._ky_d = k1[self._ix], k1[self._iy]
+
+    def _full(self, values: np.ndarray, dtype: type) -> np.ndarray:
+        out = np.zeros(self.n * self.n, dtype=dtype)
+        out[self._pos] = values
+        return out.reshape(self.n, self.n)
+
+    @property
+    def k(self) -> np.ndarray:
+        """Wavenumber magnitude of every grid bin, rad/m, ``(n, n)``."""
+        return np.sqrt(self.kx**2 + self.ky**2)
+
+    @property
+    def amplitudes(self) -> np.ndarray:
+        """Complex amplitudes ``c_k`` at t = 0 on the downwind bins (0 elsewhere), ``(n, n)``."""
+        return self._full(self._amp, np.complex128)
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Angular frequency of each downwind bin, rad/s (0 elsewhere), ``(n, n)``."""
+        return self._full(self._omega, np.float64)
 
     # -- spectral state ------------------------------------------------------------------
-    def _downwind_state(self, t: float, velocity: tuple[float, float]) -> np.ndarray:
-        vx, vy = velocity
-        phase = (self.omega - (self.kx * vx + self.ky * vy)) * t
-        return self.amplitudes * np.exp(-1j * np.where(self.downwind, phase, 0.0))
+    def _phase_rate(self, velocity: tuple[float, float]) -> np.ndarray:
+        """Observed angular frequency of each downwind mode: ``omega(k) - k.v``."""
+        return self._omega - (self._kx_d * velocity[0] + self._ky_d * velocity[1])
 
-    def _hermitian(self, d: np.ndarray) -> np.ndarray:
-        return d + np.conj(d[self._neg][:, self._neg])
+    def _hermitian(self, d: np.ndarray, dtype: type = np.complex128) -> np.ndarray:
+        """Full spectrum from downwind values ``d``: ``H(k) = d``, ``H(-k) = conj(d)``."""
+        out = np.zeros(self.n * self.n, dtype=dtype)
+        out[self._pos] = d
+        out[self._negpos] = np.conj(d)
+        return out.reshape(self.n, self.n)
 
     def coefficients(self, t: float, *, velocity_mps: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """Fourier coefficients ``H(k, t)`` of the height, ``(n, n)`` complex, Hermitian.
 
         ``h = scipy.fft.ifft2(H, norm="forward").real`` (no ``1/n^2`` on the inverse).
         """
-        return self._hermitian(self._downwind_state(float(t), velocity_mps))
+        return self._hermitian(self._amp * np.exp(-1j * self._phase_rate(velocity_mps) * float(t)))
 
     def height(self, t: float, **kw: Any) -> np.ndarray:
         """Height field ``(n, n)`` in metres at time ``t`` seconds."""
@@ -139,7 +160,7 @@ class OceanSurface:
 
     def mean_square_slope(self) -> float:
         """Mean of ``sx^2 + sy^2`` over the periodic domain (time-invariant)."""
-        return float(2.0 * np.sum(self.k**2 * np.abs(self.amplitudes) ** 2))
+        return float(2.0 * np.sum((self._kx_d**2 + self._ky_d**2) * np.abs(self._amp) ** 2))
 
     # -- fast frame path -----------------------------------------------------------------
     def iter_fields(self, times_s: np.ndarray, *, crop: tuple[int, int] | None = None,
@@ -162,14 +183,10 @@ class OceanSurface:
         times = np.asarray(times_s, dtype=np.float64).ravel()
         r0, c0 = (self.n - ch) // 2, (self.n - cw) // 2
         n = self.n
-        iy, ix = self._iy, self._ix
-        pos = iy * n + ix
-        neg = self._neg[iy] * n + self._neg[ix]
-        kx, ky = self.kx[0, ix], self.ky[iy, 0]
-        amp = self._amp
-        grad_pos = (1j * kx - ky).astype(np.complex64)
-        grad_neg = (-1j * kx + ky).astype(np.complex64)  # gradient operator at -k
-        phase_rate = self._omega - (kx * velocity_mps[0] + ky * velocity_mps[1])
+        pos, neg = self._pos, self._negpos
+        grad_pos = (1j * self._kx_d - self._ky_d).astype(np.complex64)
+        grad_neg = -grad_pos  # the gradient operator (i kx - ky) at -k
+        phase_rate = self._phase_rate(velocity_mps)
         steps = np.diff(times)
         uniform = steps.size > 0 and np.allclose(steps, steps[0], rtol=0, atol=1e-12)
         rot = np.exp(-1j * phase_rate * steps[0]).astype(np.complex64) if uniform else None
@@ -177,20 +194,21 @@ class OceanSurface:
         state = None
         for t in times:
             if state is None or rot is None:
-                state = (amp * np.exp(-1j * phase_rate * t)).astype(np.complex64)
+                state = (self._amp * np.exp(-1j * phase_rate * t)).astype(np.complex64)
             else:
                 state = state * rot
-            d = state
-            dc = np.conj(d)
-            spec[pos] = grad_pos * d
-            spec[neg] = grad_neg * dc
-            z = scipy.fft.ifft2(spec.reshape(n, n), norm="forward", overwrite_x=False)
-            z = z[r0:r0 + ch, c0:c0 + cw]
+            spec[pos] = grad_pos * state
+            spec[neg] = grad_neg * np.conj(state)
+            z = _crop_ifft2(spec.reshape(n, n), r0, c0, ch, cw)
             out = {"slope_x": np.ascontiguousarray(z.real), "slope_y": np.ascontiguousarray(z.imag)}
             if with_height:
-                hspec = np.zeros(n * n, dtype=np.complex64)
-                hspec[pos] = d
-                hspec[neg] = dc
-                hh = scipy.fft.ifft2(hspec.reshape(n, n), norm="forward")[r0:r0 + ch, c0:c0 + cw]
+                hh = _crop_ifft2(self._hermitian(state, np.complex64), r0, c0, ch, cw)
                 out["height_m"] = np.ascontiguousarray(hh.real)
             yield out
+
+
+def _crop_ifft2(spec: np.ndarray, r0: int, c0: int, ch: int, cw: int) -> np.ndarray:
+    """``ifft2(spec, norm="forward")[r0:r0+ch, c0:c0+cw]`` transforming only what the crop
+    needs: rows in full, then only the kept columns."""
+    z = scipy.fft.ifft(spec, axis=1, norm="forward")[:, c0:c0 + cw]
+    return scipy.fft.ifft(z, axis=0, norm="forward", overwrite_x=True)[r0:r0 + ch]

@@ -1,0 +1,52 @@
+"""Run every ``benchmarks/bench_*.py`` and collect their JSON into ``benchmarks/results/``.
+
+Each script prints one JSON object on stdout; this runner saves it as
+``results/<name>.json`` and prints a one-line summary per benchmark.
+Run: ``python benchmarks/run_all.py [NAME ...]`` (names without ``bench_`` / ``.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def main(argv: list[str]) -> int:
+    scripts = sorted(HERE.glob("bench_*.py"))
+    if argv:
+        wanted = set(argv)
+        unknown = wanted - {p.stem.removeprefix("bench_") for p in scripts}
+        if unknown:
+            print(f"run_all: unknown benchmark(s): {', '.join(sorted(unknown))}", file=sys.stderr)
+            return 2
+        scripts = [p for p in scripts if p.stem.removeprefix("bench_") in wanted]
+    out_dir = HERE / "results"
+    out_dir.mkdir(exist_ok=True)
+    failed = 0
+    for script in scripts:
+        name = script.stem.removeprefix("bench_")
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        if proc.returncode != 0:
+            failed += 1
+            print(f"{name}: FAILED after {dt:.0f} s\n{proc.stderr.strip()[-2000:]}", file=sys.stderr)
+            continue
+        try:
+            result = json.loads(proc.stdout)
+        except json.JSONDecodeError:
+            failed += 1
+            print(f"{name}: printed no JSON", file=sys.stderr)
+            continue
+        (out_dir / f"{name}.json").write_text(json.dumps(result, indent=2) + "\n")
+        print(f"{name}: {dt:.0f} s -> {out_dir / (name + '.json')}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

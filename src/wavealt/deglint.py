@@ -234,7 +234,9 @@ def sliding_min_stream(frames_iter: Iterable[np.ndarray], *,
     if n < 2:
         msg = "frames_iter yielded 1 frame; deglinting needs at least 2"
         raise ValueError(msg)
-    last = last.copy()  # the producer may have reused its buffer
+    # the producer may have reused its buffer since: take the last frame from our own copy
+    # (the newest slot of a block is never overwritten by the in-place suffix pass)
+    last = (cur[j - 1] if j > 0 else prev[span - 1]).copy()
     for _ in range(h):                        # h edge copies after the last frame
         y = push(last)
         if y is not None:

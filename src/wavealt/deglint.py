@@ -79,6 +79,89 @@ def window_bounds(t: int, n_frames: int, window: int) -> tuple[int, int]:
 
 
 # -- eq. (5) and (6) --------------------------------------------------------------------
+# bytes of one frame tile: ~3 (2h + 1) tiles stay in the last-level cache, and the tiles are
+# large enough that Python's per-call overhead stays small (measured best: 128-512 KiB)
+TILE_BYTES = 256 * 1024
+
+
+def _block_outputs(prev: list[np.ndarray], cur: list[np.ndarray],
+                   outs: list[np.ndarray], tile_bytes: int | None = None) -> None:
+    """van Herk / Gil-Werman step: fill ``outs[r] = min(prev[r:] + cur[:r])``.
+
+    ``prev`` is a complete block of ``L`` frames, ``cur`` the next ``k`` frames (``k < L`` only
+    at the end of a stream) and ``len(outs) <= min(L, k + 1)``.  Window ``r`` is the suffix
+    minimum of ``prev`` from ``r`` and the prefix minimum of ``cur`` up to ``r - 1``.  The work
+    runs tile by tile (rows of the frame) so every frame is read from memory once per block
+    and the intermediate minima stay in cache; about 3 comparisons per pixel per frame.
+    """
+    tile_bytes = TILE_BYTES if tile_bytes is None else tile_bytes
+    span = len(prev)
+    top = len(outs) - 1
+    frame = prev[0]
+    row_bytes = max(1, frame[0].nbytes) if frame.ndim > 1 else max(1, frame.itemsize)
+    rows = max(1, tile_bytes // row_bytes)
+    scratch = np.empty((rows,) + frame.shape[1:], frame.dtype)
+    for r0 in range(0, frame.shape[0], rows):
+        sl = slice(r0, min(r0 + rows, frame.shape[0]))
+        acc = scratch[:sl.stop - sl.start]
+        # suffix minima of the previous block, written straight into the outputs
+        if top == span - 1:
+            np.copyto(outs[top][sl], prev[top][sl])
+        else:
+            np.copyto(acc, prev[span - 1][sl])
+            for r in range(span - 2, top, -1):
+                np.minimum(prev[r][sl], acc, out=acc)
+            np.minimum(prev[top][sl], acc, out=outs[top][sl])
+        for r in range(top - 1, -1, -1):
+            np.minimum(prev[r][sl], outs[r + 1][sl], out=outs[r][sl])
+        # prefix minima of the current block
+        if top >= 1:
+            np.minimum(outs[1][sl], cur[0][sl], out=outs[1][sl])
+        if top >= 2:
+            np.minimum(cur[0][sl], cur[1][sl], out=acc)
+            np.minimum(outs[2][sl], acc, out=outs[2][sl])
+            for r in range(3, top + 1):
+                np.minimum(acc, cur[r - 1][sl], out=acc)
+                np.minimum(outs[r][sl], acc, out=outs[r][sl])
+
+
+def _sliding_min_blocks(frames: Iterator[np.ndarray], first: np.ndarray, h: int,
+                        alloc: Callable[[int], list[np.ndarray]]) -> Iterator[list[np.ndarray]]:
+    """Eq. (5) minima, a block at a time, of ``first`` followed by ``frames``.
+
+    The stream is padded with ``h`` copies of its first and last frames, which leaves every
+    truncated window minimum unchanged, and cut into blocks of ``L = 2h + 1`` frames; once block
+    ``b + 1`` is complete the ``L`` windows starting in block ``b`` are known.  Holds at most
+    ``3 L`` frames.  ``alloc(n)`` gives the ``n`` output frames of the next block.
+    """
+    span = 2 * h + 1
+    prev: list[np.ndarray] | None = None
+    cur: list[np.ndarray] = []
+    last = first
+
+    def padded() -> Iterator[np.ndarray]:
+        nonlocal last
+        for _ in range(h + 1):
+            yield first
+        for f in frames:
+            last = f
+            yield f
+        for _ in range(h):
+            yield last
+
+    for f in padded():
+        cur.append(f)
+        if len(cur) == span:
+            if prev is not None:
+                outs = alloc(span)
+                _block_outputs(prev, cur, outs)
+                yield outs
+            prev, cur = cur, []
+    outs = alloc(len(cur) + 1)
+    _block_outputs(prev, cur, outs)
+    yield outs
+
+
 def temporal_minimum(frames: np.ndarray, *, window: int = DEFAULT_WINDOW) -> np.ndarray:
     """Glint-free baseline ``Ĝ`` of paper eq. (5): sliding temporal minimum per pixel.
 
@@ -95,26 +178,27 @@ def temporal_minimum(frames: np.ndarray, *, window: int = DEFAULT_WINDOW) -> np.
 
     Notes
     -----
-    van Herk / Gil-Werman over the whole array: the sequence is padded with ``h`` copies of
-    its first and last frames (which leaves every truncated minimum unchanged), cut into blocks
-    of ``L = 2h + 1`` frames, and each window minimum is the minimum of a block suffix and the
-    next block's prefix: three comparisons per pixel per frame whatever ``w``.
+    van Herk (1992) / Gil & Werman (1993): blocks of ``2h + 1`` frames, each window the
+    minimum of a block suffix and the next block's prefix, computed tile by tile in cache:
+    about three comparisons per pixel per frame whatever ``w``.
     """
     h = _half_window(window)
     x = _check_sequence(frames)
-    n = x.shape[0]
+    out = np.empty(x.shape, x.dtype)
     if h == 0:
-        return x.copy()
-    span = 2 * h + 1
-    n_pad = n + 2 * h
-    n_blocks = -(-n_pad // span)
-    tail = n_blocks * span - n_pad + h
-    padded = np.concatenate([np.repeat(x[:1], h, axis=0), x, np.repeat(x[-1:], tail, axis=0)])
-    blocks = padded.reshape((n_blocks, span) + x.shape[1:])
-    prefix = np.minimum.accumulate(blocks, axis=1).reshape(padded.shape)
-    suffix = np.minimum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].reshape(padded.shape)
-    # window of output t covers padded[t : t + span]
-    return np.minimum(suffix[:n], prefix[span - 1:span - 1 + n])
+        out[...] = x
+        return out
+    pos = 0
+
+    def alloc(n: int) -> list[np.ndarray]:
+        nonlocal pos
+        views = [out[pos + i] for i in range(n)]
+        pos += n
+        return views
+
+    for _ in _sliding_min_blocks(iter(x[1:]), x[0], h, alloc):
+        pass
+    return out
 
 
 def tmf_residual(frames: np.ndarray, *, window: int = DEFAULT_WINDOW) -> np.ndarray:
@@ -126,8 +210,9 @@ def tmf_residual(frames: np.ndarray, *, window: int = DEFAULT_WINDOW) -> np.ndar
     x = _check_sequence(frames)
     base = temporal_minimum(x, window=window)
     if x.dtype == np.uint8:
-        return x - base  # base <= x: no wrap-around
-    return np.clip(x - base, 0.0, 1.0).astype(x.dtype, copy=False)
+        return np.subtract(x, base, out=base)  # base <= x: no wrap-around
+    np.subtract(x, base, out=base)
+    return np.clip(base, 0.0, 1.0, out=base)
 
 
 # -- streaming --------------------------------------------------------------------------
@@ -152,21 +237,24 @@ def _check_stream_frame(frame: Any, first: np.ndarray | None, index: int) -> np.
     return arr
 
 
-def sliding_min_stream(frames_iter: Iterable[np.ndarray], *,
-                       window: int = DEFAULT_WINDOW) -> Iterator[np.ndarray]:
+def sliding_min_stream(frames_iter: Iterable[np.ndarray], *, window: int = DEFAULT_WINDOW,
+                       copy: bool = True) -> Iterator[np.ndarray]:
     """Eq. (5) over a stream of frames: yields ``Ĝ(t)`` for each frame, in order.
 
-    Bit-identical to :func:`temporal_minimum` (same truncated, centred window), but never
-    holds more than ``2 (2 h + 1) + 2`` frames (``h = window // 2``), so a long video needs
-    memory O(window x frame).  ``Ĝ(t)`` is yielded as soon as frame ``t + h`` has been read.
+    Bit-identical to :func:`temporal_minimum` (same truncated, centred window), but holds at
+    most ``3 (2h + 1) + 1`` frames (``h = window // 2``), so a long video needs memory
+    O(window x frame).  ``Ĝ(t)`` comes out within ``2 (2h + 1)`` frames after frame ``t``.
 
     Parameters
     ----------
     frames_iter : iterable of (H, W, 3) or (H, W) arrays
         uint8, or float (float32, float64) in [0, 1]; all of one shape and dtype, at least 2.
-        The producer may reuse its buffer: every frame is copied on arrival.
     window : int
         ``w`` of eq. (5), >= 1.
+    copy : bool
+        Copy each frame on arrival (default), so a producer may reuse its buffer.  Pass
+        ``False`` when every yielded frame is a fresh array that nobody changes afterwards
+        (a video decoder's ``to_ndarray()``, slices of an array): it saves a memory pass.
 
     Yields
     ------
@@ -174,16 +262,13 @@ def sliding_min_stream(frames_iter: Iterable[np.ndarray], *,
 
     Notes
     -----
-    van Herk (1992) / Gil & Werman (1993) on the stream padded with ``h`` copies of the first
-    and last frames: blocks of ``L = 2h + 1`` frames; a running prefix minimum of the current
-    block, the suffix minima of the previous block (computed in place once the block is
-    complete); each output is ``min(suffix_prev[j + 1], prefix_cur[j])``.  Per frame and pixel:
-    one copy, one prefix comparison, one output comparison and (L - 2)/L suffix comparisons.
-    Bad frames (shape, dtype, NaN, range) raise ``ValueError`` when they are reached, after the
+    van Herk (1992) / Gil & Werman (1993) on the stream padded with ``h`` copies of its first
+    and last frames, a block of ``L = 2h + 1`` frames at a time (:func:`_block_outputs`):
+    about three comparisons per pixel per frame and each frame read from memory twice.  Bad
+    frames (shape, dtype, NaN, range) raise ``ValueError`` when they are reached, after the
     outputs already yielded.
     """
     h = _half_window(window)
-    span = 2 * h + 1
     it = iter(frames_iter)
     try:
         first = next(it)
@@ -191,56 +276,31 @@ def sliding_min_stream(frames_iter: Iterable[np.ndarray], *,
         msg = "frames_iter yielded no frames; need at least 2"
         raise ValueError(msg) from None
     first = _check_stream_frame(first, None, 0)
-    shape, dtype = first.shape, first.dtype
-    cur = np.empty((span,) + shape, dtype)   # raw frames of the current block
-    prev: np.ndarray | None = None            # suffix minima of the previous block
-    prefix = np.empty(shape, dtype)
-    j = 0
+    keep = (lambda f: f.copy()) if copy else (lambda f: f)
+    first = keep(first)
+    count = 1
 
-    def push(frame: np.ndarray) -> np.ndarray | None:
-        nonlocal cur, prev, j
-        np.copyto(cur[j], frame)
-        if j == 0:
-            np.copyto(prefix, frame)
-        else:
-            np.minimum(prefix, frame, out=prefix)
-        out = None
-        if j == span - 1:
-            out = prefix.copy()               # the whole block is one window
-            for k in range(span - 2, 0, -1):  # suffix minima; index 0 is never needed
-                np.minimum(cur[k], cur[k + 1], out=cur[k])
-            if prev is None:
-                prev = np.empty_like(cur)
-            cur, prev = prev, cur
-            j = 0
-        else:
-            if prev is not None:
-                out = np.minimum(prev[j + 1], prefix)
-            j += 1
-        return out
+    def checked() -> Iterator[np.ndarray]:
+        nonlocal count
+        for frame in it:
+            arr = _check_stream_frame(frame, first, count)
+            count += 1
+            yield keep(arr)
+        if count < 2:
+            msg = "frames_iter yielded 1 frame; deglinting needs at least 2"
+            raise ValueError(msg)
 
-    for _ in range(h + 1):                    # frame 0 plus h edge copies before it
-        y = push(first)
-        if y is not None:
-            yield y
-    n = 1
-    last = first
-    for frame in it:
-        last = _check_stream_frame(frame, first, n)
-        n += 1
-        y = push(last)
-        if y is not None:
-            yield y
-    if n < 2:
-        msg = "frames_iter yielded 1 frame; deglinting needs at least 2"
-        raise ValueError(msg)
-    # the producer may have reused its buffer since: take the last frame from our own copy
-    # (the newest slot of a block is never overwritten by the in-place suffix pass)
-    last = (cur[j - 1] if j > 0 else prev[span - 1]).copy()
-    for _ in range(h):                        # h edge copies after the last frame
-        y = push(last)
-        if y is not None:
-            yield y
+    if h == 0:
+        yield first.copy() if not copy else first
+        for f in checked():
+            yield f.copy() if not copy else f
+        return
+
+    def alloc(n: int) -> list[np.ndarray]:
+        return [np.empty(first.shape, first.dtype) for _ in range(n)]
+
+    for outs in _sliding_min_blocks(checked(), first, h, alloc):
+        yield from outs
 
 
 # -- clean-image estimates --------------------------------------------------------------

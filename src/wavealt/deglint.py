@@ -23,6 +23,10 @@ Methods
     conclusion proposes training on it).
 ``median``, ``percentile``
     The temporal median / a low temporal percentile over the same window.
+``achromatic``
+    Past the paper: glint is white light (eq. (3) adds it equally to R, G, B), so it is
+    removed along the grey axis, with the sequence's own water colour line telling how bright
+    each chroma should be; saturated samples fall back to ``tmf-min``.
 ``glint-mask``
     Glint detected per pixel as an outlier above the temporal median of the window (robust
     MAD threshold on the RGB mean); only those samples are replaced, by linear interpolation in
@@ -50,6 +54,7 @@ DEFAULT_WINDOW = 10
 PERCENTILE_Q = 25.0
 GLINT_MAD_K = 3.0
 GLINT_MIN_EXCESS = 0.03
+ACHROMATIC_ITERATIONS = 4
 SSIM_SIGMA_PX = 1.5
 SSIM_TRUNCATE = 3.5  # radius 5 px: the 11x11 Gaussian window of Wang et al. (2004)
 
@@ -250,9 +255,11 @@ def sliding_min_stream(frames_iter: Iterable[np.ndarray], *, window: int = DEFAU
                        copy: bool = True) -> Iterator[np.ndarray]:
     """Eq. (5) over a stream of frames: yields ``Ĝ(t)`` for each frame, in order.
 
-    Bit-identical to :func:`temporal_minimum` (same truncated, centred window), but holds at
-    most ``3 (2h + 1) + 1`` frames (``h = window // 2``), so a long video needs memory
-    O(window x frame).  ``Ĝ(t)`` comes out within ``2 (2h + 1)`` frames after frame ``t``.
+    Bit-identical to :func:`temporal_minimum` (same truncated, centred window), but holds
+    about ``3 (2h + 1) + 2`` frames (``h = window // 2``: a ring of ``2 (2h + 1) + 1`` arrival
+    copies and one block of outputs), plus whatever outputs the consumer keeps, so a long
+    video needs memory O(window x frame).  ``Ĝ(t)`` comes out within ``2 (2h + 1)`` frames
+    after frame ``t``.
 
     Parameters
     ----------
@@ -447,11 +454,69 @@ def glint_masked(frames: np.ndarray, *, window: int = DEFAULT_WINDOW, k: float =
     return out.astype(x.dtype, copy=False)
 
 
+def achromatic(frames: np.ndarray, *, window: int = DEFAULT_WINDOW,
+               iterations: int = ACHROMATIC_ITERATIONS) -> np.ndarray:
+    """``achromatic``: remove glint as white light, using the colour of the water.
+
+    Paper eq. (3) renders a frame as a water/sky colour mix plus a glint lobe added equally
+    to R, G and B (specular sun glint is spectrally flat, the property remote-sensing
+    deglinting relies on).  So the chroma ``d = I - mean_c(I)`` does not see glint, and the
+    clean colours of a sequence lie on one line ``a + b F`` (``F``: the Fresnel sky weight):
+    the clean RGB mean is an affine function ``p + q s`` of the chroma coordinate ``s`` along
+    that line.  Per sequence: ``s`` is the principal axis of ``d``; ``(p, q)`` is fitted to the
+    lower envelope of ``(s, mean_c I)`` (least squares, ``iterations`` times keeping the samples
+    below the median residual, since glint only adds light); the estimate is
+    ``min(mean_c I, p + q s) + d``.  Samples with a saturated channel (>= 0.995, chroma lost
+    to clipping) take the eq. (5) temporal minimum over ``window`` instead.
+
+    Needs RGB ``(T, H, W, 3)`` frames.  Same shape and dtype as ``frames``.  On real sea
+    imagery the colour line holds only roughly (foam, turbidity, sky gradients); here it is
+    exact up to 8-bit rounding, which flatters this method.
+    """
+    _half_window(window)
+    x = _check_sequence(frames)
+    if x.ndim != 4:
+        msg = f"achromatic needs RGB frames (T, H, W, 3); got shape {x.shape}"
+        raise ValueError(msg)
+    xf = _as_float(x).astype(np.float64)
+    lum = xf.mean(axis=-1)
+    chroma = xf - lum[..., None]
+    ok = xf.max(axis=-1) < 0.995
+    tmin = _as_float(temporal_minimum(x, window=window))
+    if ok.sum() < 16:
+        return _like(tmin, x)
+    dv = chroma[ok]
+    centre = dv.mean(axis=0)
+    axis = np.linalg.svd(dv - centre, full_matrices=False)[2][0]
+    coord = (chroma - centre) @ axis
+    s_ok, l_ok = coord[ok], lum[ok]
+    sel = np.ones(s_ok.shape, bool)
+
+    def fit(mask: np.ndarray) -> tuple[float, float]:
+        ss, ll = s_ok[mask], l_ok[mask]
+        var = ss.var()
+        q = 0.0 if var <= 1e-12 else float(np.mean((ss - ss.mean()) * (ll - ll.mean())) / var)
+        return float(ll.mean() - q * ss.mean()), q
+
+    for _ in range(int(iterations)):
+        p, q = fit(sel)
+        resid = l_ok - (p + q * s_ok)
+        new = resid <= np.median(resid[sel])
+        if new.sum() < 16:
+            break
+        sel = new
+    p, q = fit(sel)
+    est = np.minimum(lum, p + q * coord)[..., None] + chroma
+    est = np.where(ok[..., None], est, tmin)
+    return _like(est, x)
+
+
 METHODS: dict[str, Callable[..., np.ndarray]] = {
     "tmf-min": temporal_min_estimate,
     "median": temporal_median,
     "percentile": temporal_percentile,
     "glint-mask": glint_masked,
+    "achromatic": achromatic,
 }
 PAPER_METHOD = "tmf"
 METHOD_DESCRIPTIONS = {
@@ -461,6 +526,8 @@ METHOD_DESCRIPTIONS = {
     "percentile": f"temporal {PERCENTILE_Q:g}th percentile over the eq. (5) window: estimated clean frame",
     "glint-mask": ("glint samples (RGB mean above the window median by > max(3 MAD, "
                    f"{GLINT_MIN_EXCESS:g})) interpolated in time from non-glint samples"),
+    "achromatic": ("glint removed as white light: per-sequence water colour line fitted to "
+                   "the chroma; saturated samples take the window minimum"),
 }
 
 

@@ -594,6 +594,8 @@ def ssim(estimate: np.ndarray, reference: np.ndarray) -> float:
     if a.ndim < 2:
         msg = f"ssim needs images of at least 2 dimensions; got shape {a.shape}"
         raise ValueError(msg)
+    # float32 halves the filtering time; its rounding (~1e-7) is far below C2 = 9e-4
+    a, b = a.astype(np.float32), b.astype(np.float32)
     if a.ndim == 2:
         spatial = (0, 1)
     elif a.ndim == 3 and a.shape[-1] == 3:
@@ -746,6 +748,19 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
     ds.register_condition(cond, METHOD_DESCRIPTIONS[method], complete=False, **settings)
     have_clean = "clean" in ds.conditions
     q_method, q_glinty = _QualityAccumulator(), _QualityAccumulator()
+    metrics_path = ds.root / "deglint_metrics.json"
+    metrics: dict[str, Any] = {}
+    if metrics_path.is_file():
+        try:
+            metrics = json.loads(metrics_path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError:
+            metrics = {}
+    # glinty and clean never change for a dataset (a pure function of its config): a baseline
+    # row measured over every sequence is kept rather than measured again
+    n_total = sum(r.scenario.frames for r in ds.records)
+    old_base = metrics.get("glinty", {})
+    keep_base = (old_base.get("n_sequences") == len(ds.records)
+                 and old_base.get("n_frames") == n_total)
     for rec in tqdm(ds.records, desc=f"deglint {cond}", unit="seq", disable=not progress):
         sid = rec.sequence_id
         if reuse and ds.has_sequence(cond, sid):
@@ -759,21 +774,16 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
             ds.write_frames(cond, sid, out)
         if have_clean:
             clean = ds.read_frames("clean", sid)
-            if glinty is None:
-                glinty = ds.read_frames("glinty", sid)
             q_method.add(out, clean)
-            q_glinty.add(glinty, clean)
+            if not keep_base:
+                if glinty is None:
+                    glinty = ds.read_frames("glinty", sid)
+                q_glinty.add(glinty, clean)
     ds.register_condition(cond, METHOD_DESCRIPTIONS[method], complete=True, **settings)
     if have_clean and ds.records:
-        path = ds.root / "deglint_metrics.json"
-        metrics: dict[str, Any] = {}
-        if path.is_file():
-            try:
-                metrics = json.loads(path.read_text(encoding="utf-8"))
-            except json.JSONDecodeError:
-                metrics = {}
-        metrics["glinty"] = {"method": "none", "window": None, **q_glinty.result()}
+        if not keep_base:
+            metrics["glinty"] = {"method": "none", "window": None, **q_glinty.result()}
         metrics[cond] = {**settings, **q_method.result()}
-        atomic_write_text(path, json.dumps(metrics, indent=2, sort_keys=True) + "\n")
+        atomic_write_text(metrics_path, json.dumps(metrics, indent=2, sort_keys=True) + "\n")
         atomic_write_text(ds.root / "deglint_table.md", quality_table(metrics))
     return cond

@@ -198,7 +198,7 @@ def temporal_minimum(frames: np.ndarray, *, window: int = DEFAULT_WINDOW) -> np.
     # All frames are at hand: run the whole sequence one spatial tile (band of rows) at a
     # time, so each input pixel is read from memory once and each output written once.
     row_bytes = max(1, x[0, 0].nbytes)
-    rows = max(1, TILE_BYTES // (4 * row_bytes))
+    rows = max(1, TILE_BYTES // row_bytes)
     for r0 in range(0, x.shape[1], rows):
         sl = slice(r0, min(r0 + rows, x.shape[1]))
         tile = x[:, sl]

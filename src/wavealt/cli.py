@@ -113,7 +113,8 @@ def figures(dataset: Path, out: Path | None, seq_id: str | None) -> None:
 @cli.command()
 @click.argument("dataset", type=click.Path(path_type=Path))
 @click.option("--method", default="tmf", show_default=True,
-              help="tmf (paper eq. (6) residual), tmf-min, median, percentile, glint-mask, or all.")
+              help="tmf (paper eq. (6) residual), tmf-min, median, percentile, glint-mask, "
+                   "achromatic, or all.")
 @click.option("--window", type=int, default=10, show_default=True,
               help="Temporal window w of paper eq. (5), in frames (frame t sees t-w//2..t+w//2).")
 @click.option("--figures/--no-figures", default=True, show_default=True,

@@ -110,6 +110,34 @@ def figures(dataset: Path, out: Path | None, seq_id: str | None) -> None:
         click.echo(f"figure: {p}")
 
 
+@cli.command()
+@click.argument("dataset", type=click.Path(path_type=Path))
+@click.option("--method", default="tmf", show_default=True,
+              help="tmf (paper eq. (6) residual), tmf-min, median, percentile, glint-mask, "
+                   "achromatic, or all.")
+@click.option("--window", type=int, default=10, show_default=True,
+              help="Temporal window w of paper eq. (5), in frames (frame t sees t-w//2..t+w//2).")
+@click.option("--figures/--no-figures", default=True, show_default=True,
+              help="Write paper Fig. 4 and Fig. 7 into DATASET/figures.")
+def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
+    """Deglint the glinty frames of DATASET and rank the methods against clean/."""
+    from wavealt.deglint import condition_name, deglint_dataset, method_names
+
+    methods = method_names() if method == "all" else [method]
+    for m in methods:
+        condition_name(m)  # unknown names fail before anything is written
+    for m in methods:
+        cond = deglint_dataset(dataset, method=m, window=window)
+        click.echo(f"condition: {dataset / cond}")
+    table = dataset / "deglint_table.md"
+    if table.is_file():
+        click.echo(table.read_text(encoding="utf-8"), nl=False)
+    if figures:
+        from wavealt.plots import deglint_figures
+        for p in deglint_figures(dataset, dataset / "figures", window=window):
+            click.echo(f"figure: {p}")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI, turning library errors into one line and exit code 2."""
     try:

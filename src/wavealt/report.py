@@ -209,7 +209,11 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
             return {"estimator": res.estimator, "metrics": res.metrics,
                     "baseline": res.baseline, "baseline_label": res.baseline_label}
 
-        r = stages.run(f"evaluate:{name}", eval_one)
+        key = f"evaluate:{name}"
+        prev = stages.data.get(key, {}).get("result") or {}
+        if stages.done(key) and sorted(prev.get("metrics", {})) != sorted(conditions):
+            del stages.data[key]  # new conditions appeared (e.g. deglinting landed): redo
+        r = stages.run(key, eval_one)
         if r is not None:
             evals[name] = r
     stages.data["total"] = {"status": "done",

@@ -276,7 +276,16 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
                     f"wavealt {__version__}, torch {torch.__version__}, numpy {np.__version__}, "
                     f"python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. "
                     f"Total wall time of this invocation: {_f(stages.get('total', {}).get('seconds'))} s "
-                    "(stages done by an earlier invocation are not re-timed; see the stage table).",
+                    "(stages done by an earlier invocation are not re-timed; see the stage table). "
+                    f"Sum of all stage times: {_f(sum(v.get('seconds') or 0.0 for k, v in stages.items() if k != 'total' and isinstance(v, dict)))} s.",
+                    "",
+                    "Protocol notes: splits are the manifest's 70/15/15 by sequence (seed 42), so no "
+                    "frame of a test sequence is seen in training. Training augments by a random crop "
+                    "*without resize* (the altitude lives in the pixel scale of the waves), H/V flips "
+                    "and brightness/contrast/saturation jitter; evaluation uses the deterministic centre "
+                    "crop of the same size and reports, per test sequence, the mean of its per-frame "
+                    "predictions (the temporal CNN sees all frames at once, stacked as grayscale "
+                    "channels). n counts sequences, as in the paper's Table 2.",
                     ""]
     main = evals.get("cnn-clean")
     L += ["## Table 2 — CNN trained on clean, tested per condition (ours vs the paper)", ""]

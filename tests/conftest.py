@@ -1,10 +1,27 @@
+"""Shared fixtures: a tiny generated dataset, with a condition where altitude is learnable."""
+
+from __future__ import annotations
+
 import numpy as np
 import pytest
 
-# Tolerances per dtype (kornia style) instead of magic atol scattered through tests.
-TOL = {np.float32: dict(rtol=1e-5, atol=1e-6), np.float64: dict(rtol=1e-10, atol=1e-12)}
+from wavealt.dataset import Dataset
+from wavealt.scenario import preset_config
+from wavealt.simulate import simulate_dataset
 
 
-@pytest.fixture
-def tol():
-    return TOL
+@pytest.fixture(scope="session")
+def tiny_dataset(tmp_path_factory: pytest.TempPathFactory):
+    """12 sequences x 4 frames of 48x48 px, plus a ``bright`` condition whose mean intensity
+    encodes the altitude (so a tiny CNN can learn it in a few epochs)."""
+    root = tmp_path_factory.mktemp("data") / "ds"
+    simulate_dataset(root, preset_config("paper", sequences=12, size=48, frames=4), progress=False)
+    ds = Dataset(root)
+    rng = np.random.default_rng(0)
+    for r in ds.records:
+        level = 0.1 + 0.15 * (r.altitude_m - 1.0)
+        tex = rng.random((4, 48, 48, 1)) * 0.1
+        ds.write_frames("bright", r.sequence_id,
+                        np.clip(np.broadcast_to(level + tex, (4, 48, 48, 3)), 0, 1).astype(np.float32))
+    ds.register_condition("bright", "test condition: intensity encodes altitude")
+    return root

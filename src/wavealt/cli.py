@@ -137,6 +137,73 @@ def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
         for p in deglint_figures(dataset, dataset / "figures", window=window):
             click.echo(f"figure: {p}")
 
+@click.option("--out", "run", type=click.Path(path_type=Path), required=True,
+              help="Run folder for checkpoints, config.json and history.json.")
+@click.option("--condition", default="clean", show_default=True,
+              help="Condition to train on (clean, glinty, residual, ...).")
+@click.option("--model", default="resnet50", show_default=True,
+              help="Registered model: resnet50, resnet18, resnet-small, resnet-tiny.")
+@click.option("--epochs", type=int, default=30, show_default=True)
+@click.option("--batch-size", type=int, default=32, show_default=True)
+@click.option("--lr", type=float, default=1e-4, show_default=True, help="Adam learning rate.")
+@click.option("--seed", type=int, default=42, show_default=True)
+@click.option("--crop-px", type=int, default=None,
+              help="Random/centre crop side, no resize [image size - size // 8].")
+@click.option("--frames-per-sequence", type=int, default=0, show_default=True,
+              help="Frames drawn per training sequence each epoch (0 = all).")
+@click.option("--temporal", is_flag=True, help="Temporal variant: the sequence's frames as channels.")
+@click.option("--workers", type=int, default=0, show_default=True, help="DataLoader workers.")
+@click.option("--pretrained", type=click.Path(path_type=Path), default=None,
+              help="Local torchvision-style state dict to start from (nothing is downloaded).")
+@click.option("--resume", is_flag=True, help="Continue the run in --out from its last epoch.")
+def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, batch_size: int,
+          lr: float, seed: int, crop_px: int | None, frames_per_sequence: int, temporal: bool,
+          workers: int, pretrained: Path | None, resume: bool) -> None:
+    """Train the CNN altimeter on DATASET (paper Table 1)."""
+    from wavealt.altimetry.train import TrainConfig
+    from wavealt.altimetry.train import train as train_run
+
+    cfg = TrainConfig(condition=condition, model=model, epochs=epochs, batch_size=batch_size,
+                      lr=lr, seed=seed, crop_px=crop_px, frames_per_sequence=frames_per_sequence,
+                      temporal=temporal, num_workers=workers,
+                      pretrained=str(pretrained) if pretrained else None)
+    res = train_run(dataset, run, cfg, resume=resume)
+    click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "
+               f"{res['best_val_mae_m']:.3f} m)")
+
+
+@cli.command()
+@click.argument("dataset", type=click.Path(path_type=Path))
+@click.option("--estimator", required=True,
+              help="cnn:RUN, constant:RUN, constant (dataset train mean) or dispersion.")
+@click.option("--conditions", default=None,
+              help="Comma-separated test conditions [all conditions of the dataset].")
+@click.option("--split", default="test", show_default=True, help="Split to evaluate.")
+@click.option("--out", type=click.Path(path_type=Path), required=True,
+              help="Folder for metrics.json, table.md, predictions.csv and Fig. 5/6.")
+def evaluate(dataset: Path, estimator: str, conditions: str | None, split: str, out: Path) -> None:
+    """Evaluate an altimeter on DATASET per condition (paper Table 2, Fig. 5, Fig. 6)."""
+    from wavealt.evaluation import evaluate as run_eval
+
+    conds = [c.strip() for c in conditions.split(",") if c.strip()] if conditions else None
+    res = run_eval(dataset, estimator, conditions=conds, out=out, split=split)
+    click.echo((out / "table.md").read_text(encoding="utf-8").rstrip())
+    click.echo(f"metrics: {out / 'metrics.json'} ({len(res.metrics)} conditions)")
+
+
+@cli.command()
+@click.argument("out", type=click.Path(path_type=Path))
+@click.option("--scale", type=click.Choice(["quick", "paper"]), default="quick",
+              show_default=True, help="quick: small images, small model (~10 min on 2 cores); "
+              "paper: the paper's protocol.")
+def reproduce(out: Path, scale: str) -> None:
+    """Run the paper end to end into OUT and write report.md / report.html (resumable)."""
+    from wavealt.report import reproduce as run_reproduce
+
+    paths = run_reproduce(out, scale=scale)
+    for p in paths:
+        click.echo(f"report: {p}")
+
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI, turning library errors into one line and exit code 2."""

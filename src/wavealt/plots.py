@@ -180,3 +180,48 @@ def deglint_figures(dataset: Path | str, out: Path | str, *, sequence_id: str | 
         figure_pixel_trace(glinty, out / "fig7_pixel_trace.png", window=window,
                            title=f"{sequence_id}: pixel trace, w = {window} (paper Fig. 7)"),
     ]
+
+def _condition_label(c: str) -> str:
+    return {"clean": "Clean", "glinty": "Glinty", "residual": "Residual (TMF)"}.get(c, c)
+
+
+def figure_predicted_vs_actual(predictions: dict, path: Path, *, title: str = "") -> Path:
+    """Paper Fig. 5: predicted vs actual altitude per condition; dashed identity line.
+
+    ``predictions`` maps a condition to ``{"true_m": (N,), "pred_m": (N,)}`` arrays.
+    """
+    conds = list(predictions)
+    fig, axes = plt.subplots(1, len(conds), figsize=(3.6 * len(conds), 3.6), squeeze=False)
+    allv = np.concatenate([np.r_[d["true_m"], d["pred_m"]] for d in predictions.values()])
+    allv = allv[np.isfinite(allv)]
+    lo, hi = (float(allv.min()), float(allv.max())) if allv.size else (0.0, 1.0)
+    pad = 0.05 * (hi - lo + 1e-9)
+    for ax, c in zip(axes[0], conds):
+        t, p = np.asarray(predictions[c]["true_m"]), np.asarray(predictions[c]["pred_m"])
+        ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k--", lw=1, label="perfect")
+        ax.scatter(t, p, s=14, alpha=0.8)
+        ax.set_xlim(lo - pad, hi + pad)
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("actual altitude (m)")
+        ax.set_title(_condition_label(c))
+    axes[0, 0].set_ylabel("predicted altitude (m)")
+    fig.suptitle(title or "Predicted vs actual altitude (Fig. 5)")
+    return _save(fig, path)
+
+
+def figure_error_distribution(predictions: dict, path: Path, *, title: str = "") -> Path:
+    """Paper Fig. 6: distribution of absolute errors per condition (histograms)."""
+    errs = {c: np.abs(np.asarray(d["pred_m"]) - np.asarray(d["true_m"]))
+            for c, d in predictions.items()}
+    errs = {c: e[np.isfinite(e)] for c, e in errs.items()}
+    top = max([float(e.max()) for e in errs.values() if e.size] + [1e-3])
+    bins = np.linspace(0.0, top, 16)
+    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    for c, e in errs.items():
+        ax.hist(e, bins=bins, histtype="step", lw=1.8, label=f"{_condition_label(c)} (n={e.size})")
+    ax.set_xlabel("absolute error (m)")
+    ax.set_ylabel("test sequences")
+    ax.legend(fontsize=8)
+    ax.set_title(title or "Distribution of absolute errors (Fig. 6)")
+    return _save(fig, path)

@@ -1,0 +1,1 @@
+"""Altimeters: the CNN regressor and the physics-based dispersion fit."""

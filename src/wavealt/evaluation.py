@@ -1,0 +1,298 @@
+"""Evaluation: altitude metrics per condition, the paper's Table 2, estimators and figures.
+
+An *estimator* turns the frames of a test sequence into one altitude (m).  Spec strings (the
+``--estimator`` of ``wavealt evaluate``):
+
+``cnn:RUN``       the trained CNN of run folder RUN (best checkpoint)
+``constant:RUN``  always the training-set mean altitude of RUN (the baseline to beat)
+``constant``      always the mean altitude of the dataset's own train split
+``dispersion``    the physics-based dispersion-relation altimeter (``wavealt.altimetry.dispersion``)
+
+``evaluate`` writes into its output folder:
+
+``metrics.json``    ``{"<condition>": {"n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m"}}``
+                    (bias = mean of predicted - true; n = sequences with a finite estimate)
+``predictions.csv`` one row per (condition, sequence)
+``table.md``        laid out like the paper's Table 2, with the glint-penalty row and the
+                    constant baseline
+``fig5_predicted_vs_actual.png``, ``fig6_error_distribution.png``
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from tqdm.auto import tqdm
+
+METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m")
+
+#: The paper's Table 2 (ResNet-50 trained on clean, n = 30 test sequences each).
+PAPER_TABLE2: dict[str, dict[str, float]] = {
+    "clean": {"mae_m": 1.82, "rmse_m": 2.06, "bias_m": -0.06, "max_abs_err_m": 3.47},
+    "glinty": {"mae_m": 2.49, "rmse_m": 2.80, "bias_m": -1.94, "max_abs_err_m": 3.88},
+    "residual": {"mae_m": 3.12, "rmse_m": 4.36, "bias_m": -2.58, "max_abs_err_m": 9.92},
+}
+
+CONDITION_LABELS = {"clean": "Clean", "glinty": "Glinty", "residual": "Residual (TMF)"}
+
+
+def altitude_metrics(predicted_m: Sequence[float], true_m: Sequence[float]) -> dict[str, Any]:
+    """MAE, RMSE, bias (mean of predicted - true) and max absolute error, in metres.
+
+    Non-finite predictions (an estimator that gave up) are left out; ``n`` counts the rest.
+
+    Parameters
+    ----------
+    predicted_m, true_m : sequence of float, shape (N,)
+        Estimated and true altitudes.
+    """
+    p = np.asarray(predicted_m, dtype=np.float64).ravel()
+    t = np.asarray(true_m, dtype=np.float64).ravel()
+    if p.shape != t.shape:
+        msg = f"predicted_m and true_m must have the same length; got {p.size} and {t.size}"
+        raise ValueError(msg)
+    if not np.all(np.isfinite(t)):
+        msg = "true_m must be finite"
+        raise ValueError(msg)
+    ok = np.isfinite(p)
+    err = p[ok] - t[ok]
+    if err.size == 0:
+        return {"n": 0, "mae_m": math.nan, "rmse_m": math.nan, "bias_m": math.nan,
+                "max_abs_err_m": math.nan}
+    return {"n": int(err.size), "mae_m": float(np.mean(np.abs(err))),
+            "rmse_m": float(np.sqrt(np.mean(err**2))), "bias_m": float(np.mean(err)),
+            "max_abs_err_m": float(np.max(np.abs(err)))}
+
+
+# -- estimators -------------------------------------------------------------------------
+class Estimator(Protocol):
+    name: str
+
+    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        """Altitude (m) of one sequence of ``dataset`` in ``condition``; NaN if it gives up."""
+
+
+@dataclass
+class ConstantEstimator:
+    """Always answers ``altitude_m`` (the training-set mean): the baseline to beat."""
+
+    altitude_m: float
+    source: str = ""
+    name: str = "constant"
+
+    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        return float(self.altitude_m)
+
+
+class CnnEstimator:
+    """The CNN of a training run folder (best checkpoint), mean over a sequence's frames."""
+
+    def __init__(self, run: Path | str) -> None:
+        from wavealt.altimetry.train import load_run
+
+        self.run = Path(run)
+        self.predictor = load_run(self.run)
+        cfg = self.predictor.config
+        kind = "temporal " if cfg.temporal else ""
+        self.name = f"cnn ({kind}{cfg.model}, trained on {cfg.condition})"
+
+    @property
+    def train_mean_m(self) -> float:
+        return float(self.predictor.stats["target_mean_m"])
+
+    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        frames = dataset.read_frames(condition, record.sequence_id)
+        return self.predictor.predict_sequence(frames)
+
+
+class DispersionEstimator:
+    """Physics-based: fit of the wave dispersion relation (``wavealt.altimetry.dispersion``)."""
+
+    name = "dispersion"
+
+    def __init__(self) -> None:
+        try:
+            from wavealt.altimetry.dispersion import DispersionAltimeter
+        except ImportError as exc:
+            msg = f"estimator 'dispersion' is not available: {exc}"
+            raise ValueError(msg) from None
+        self.altimeter = DispersionAltimeter()
+
+    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        frames = dataset.read_frames(condition, record.sequence_id)
+        try:
+            res = self.altimeter.estimate(frames, fps=record.scenario.fps,
+                                          focal_px=record.scenario.focal_px)
+        except ValueError:
+            return math.nan
+        return float(res.altitude_m)
+
+
+def train_split_mean_m(dataset: Any) -> float:
+    """Mean true altitude (m) of the dataset's train split."""
+    recs = dataset.split("train")
+    if not recs:
+        msg = f"dataset {dataset.root} has no train split to take a mean from"
+        raise ValueError(msg)
+    return float(np.mean([r.altitude_m for r in recs]))
+
+
+def parse_estimator(spec: str, dataset: Any = None) -> Estimator:
+    """Build an estimator from its spec string (see the module docstring)."""
+    kind, _, arg = str(spec).partition(":")
+    if kind == "cnn" and arg:
+        return CnnEstimator(arg)
+    if kind == "constant" and arg:
+        from wavealt.altimetry.train import CONFIG_NAME
+
+        cfg = Path(arg) / CONFIG_NAME
+        if not cfg.is_file():
+            msg = f"run folder {arg} has no {CONFIG_NAME} (train it with `wavealt train`)"
+            raise FileNotFoundError(msg)
+        info = json.loads(cfg.read_text(encoding="utf-8"))
+        return ConstantEstimator(float(info["stats"]["target_mean_m"]), source=str(arg))
+    if kind == "constant" and dataset is not None:
+        return ConstantEstimator(train_split_mean_m(dataset), source="dataset train split")
+    if kind == "dispersion" and not arg:
+        return DispersionEstimator()
+    msg = f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant or dispersion"
+    raise ValueError(msg)
+
+
+# -- evaluation -------------------------------------------------------------------------
+@dataclass
+class EvaluationResult:
+    """Per-condition metrics and predictions of one estimator."""
+
+    estimator: str
+    metrics: dict[str, dict[str, Any]]
+    predictions: dict[str, dict[str, np.ndarray]]  # cond -> {"sequence_id", "true_m", "pred_m"}
+    baseline: dict[str, Any] | None = None
+    baseline_label: str = ""
+
+
+def _baseline_for(est: Estimator, dataset: Any) -> ConstantEstimator:
+    if isinstance(est, ConstantEstimator):
+        return est
+    if isinstance(est, CnnEstimator):
+        return ConstantEstimator(est.train_mean_m, source=str(est.run))
+    return ConstantEstimator(train_split_mean_m(dataset), source="dataset train split")
+
+
+def evaluate(dataset: Path | str, estimator: str | Estimator, *,
+             conditions: Sequence[str] | None = None, out: Path | str | None = None,
+             split: str = "test", progress: bool = True, figures: bool = True) -> EvaluationResult:
+    """Evaluate ``estimator`` on the ``split`` sequences of each condition.
+
+    Parameters
+    ----------
+    dataset : path
+        Dataset folder.
+    estimator : str or Estimator
+        A spec string (``cnn:RUN``, ``constant:RUN``, ``constant``, ``dispersion``) or object.
+    conditions : sequence of str, optional
+        Conditions to test (each must exist); default: every condition of the dataset.
+    out : path, optional
+        Folder for metrics.json, predictions.csv, table.md and Fig. 5/6.
+    split : str
+        ``test`` (default), ``val`` or ``train``.
+    """
+    from wavealt.dataset import Dataset, atomic_write_text
+
+    ds = Dataset(dataset)
+    est = parse_estimator(estimator, ds) if isinstance(estimator, str) else estimator
+    conds = list(conditions) if conditions else ds.conditions
+    if not conds:
+        msg = "conditions must name at least one condition"
+        raise ValueError(msg)
+    for c in conds:
+        ds.require_condition(c)
+    records = ds.split(split)
+    if not records:
+        msg = f"dataset {ds.root} has no {split!r} sequences"
+        raise ValueError(msg)
+    true_m = np.array([r.altitude_m for r in records])
+    metrics: dict[str, dict[str, Any]] = {}
+    preds: dict[str, dict[str, np.ndarray]] = {}
+    bar = tqdm(total=len(conds) * len(records), desc=f"evaluate {est.name}", disable=not progress,
+               unit="seq")
+    for c in conds:
+        p = np.empty(len(records))
+        for i, r in enumerate(records):
+            p[i] = est.estimate(ds, c, r)
+            bar.update()
+        metrics[c] = altitude_metrics(p, true_m)
+        preds[c] = {"sequence_id": np.array([r.sequence_id for r in records]), "true_m": true_m,
+                    "pred_m": p}
+    bar.close()
+    base = _baseline_for(est, ds)
+    base_metrics = altitude_metrics(np.full(len(records), base.altitude_m), true_m)
+    result = EvaluationResult(est.name, metrics, preds, base_metrics,
+                              f"constant {base.altitude_m:.2f} m ({base.source})")
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+        atomic_write_text(out / "predictions.csv", predictions_csv(preds))
+        atomic_write_text(out / "table.md", table_markdown(result))
+        if figures:
+            from wavealt.plots import figure_error_distribution, figure_predicted_vs_actual
+
+            title = f"{est.name}, {split} split"
+            figure_predicted_vs_actual(preds, out / "fig5_predicted_vs_actual.png", title=title)
+            figure_error_distribution(preds, out / "fig6_error_distribution.png", title=title)
+    return result
+
+
+def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["condition", "sequence_id", "altitude_m", "predicted_m", "abs_err_m"])
+    for c, d in preds.items():
+        for sid, t, p in zip(d["sequence_id"], d["true_m"], d["pred_m"]):
+            w.writerow([c, sid, f"{t:.4f}", f"{p:.4f}", f"{abs(p - t):.4f}"])
+    return buf.getvalue()
+
+
+def _f(x: float, signed: bool = False) -> str:
+    if x is None or not math.isfinite(x):
+        return "—"
+    return f"{x:+.2f}" if signed else f"{x:.2f}"
+
+
+def table_markdown(result: EvaluationResult) -> str:
+    """The paper's Table 2 layout: one row per condition, the glint penalty, the baseline."""
+    m = result.metrics
+    n = sorted({v["n"] for v in m.values()})
+    lines = [f"Altitude estimation error by image condition — {result.estimator} "
+             f"(n = {', '.join(map(str, n))} test sequences each)", "",
+             "| Condition | MAE (m) | RMSE (m) | Bias (m) | Max Err (m) |",
+             "|---|---:|---:|---:|---:|"]
+    for c, v in m.items():
+        lines.append(f"| {CONDITION_LABELS.get(c, c)} | {_f(v['mae_m'])} | {_f(v['rmse_m'])} | "
+                     f"{_f(v['bias_m'], True)} | {_f(v['max_abs_err_m'])} |")
+    if "clean" in m and "glinty" in m:
+        pen = m["glinty"]["mae_m"] - m["clean"]["mae_m"]
+        lines.append(f"| Glint penalty | {_f(pen, True)} m MAE from clean → glinty | | | |")
+    if result.baseline is not None:
+        b = result.baseline
+        lines.append(f"| Baseline: {result.baseline_label} | {_f(b['mae_m'])} | {_f(b['rmse_m'])} | "
+                     f"{_f(b['bias_m'], True)} | {_f(b['max_abs_err_m'])} |")
+    failed = {c: int(np.sum(~np.isfinite(d["pred_m"]))) for c, d in result.predictions.items()}
+    if any(failed.values()):
+        lines += ["", "Sequences without an estimate (left out of n): "
+                  + ", ".join(f"{c} {k}" for c, k in failed.items() if k)]
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["METRIC_KEYS", "PAPER_TABLE2", "CnnEstimator", "ConstantEstimator",
+           "DispersionEstimator", "EvaluationResult", "altitude_metrics", "evaluate",
+           "parse_estimator", "predictions_csv", "table_markdown", "train_split_mean_m"]

@@ -1,0 +1,467 @@
+"""``wavealt reproduce``: the paper end to end (simulate -> deglint -> train -> evaluate) and
+its report (``report.md`` and a self-contained ``report.html`` with the figures embedded).
+
+Every stage records itself in ``OUT/stages.json`` when it finishes; a re-run skips the stages
+already done (and each stage is itself resumable: the simulator and deglinter complete missing
+sequences, training resumes from its last epoch), so an interrupted ``reproduce`` loses at most
+the current epoch.  A stage whose module is missing is recorded as skipped and retried next time.
+
+Scales:
+
+``quick``  120 sequences of 64x64 px, the small registered ResNet (``resnet-small``, 0.5 M
+           parameters), 8 epochs, lr 1e-3, 4 frames per sequence per epoch: about 10 minutes on
+           2 CPU cores.  *Not* the paper's protocol; labelled as such in the report.
+``paper``  the paper's protocol: 200 sequences of 224x224 px (30 test sequences), ResNet-50,
+           30 epochs, batch 32, Adam 1e-4 with cosine annealing.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import platform
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+DEGLINT_METHODS = ("tmf", "tmf-min", "median", "percentile", "glint-mask")
+
+
+@dataclass(frozen=True)
+class ReproduceScale:
+    """Sizes of one ``reproduce`` scale."""
+
+    name: str
+    sequences: int
+    size: int
+    frames: int
+    model: str
+    epochs: int
+    batch_size: int
+    lr: float
+    frames_per_sequence: int
+    train_conditions: tuple[str, ...]
+    temporal_conditions: tuple[str, ...]
+    note: str
+    deglint_methods: tuple[str, ...] = DEGLINT_METHODS
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+SCALES: dict[str, ReproduceScale] = {
+    "quick": ReproduceScale(
+        name="quick", sequences=120, size=64, frames=10, model="resnet-small", epochs=8,
+        batch_size=32, lr=1e-3, frames_per_sequence=4,
+        train_conditions=("clean", "glinty", "residual"), temporal_conditions=("clean",),
+        note=("QUICK SCALE — not the paper's protocol: 120 sequences of 64x64 px, the small "
+              "registered ResNet (`resnet-small`, Bottleneck (1,1,1,1), width 16, 0.5 M "
+              "parameters) instead of ResNet-50, 8 epochs at lr 1e-3, 4 frames per sequence per "
+              "epoch. Run `wavealt reproduce OUT --scale paper` for the paper's protocol.")),
+    "paper": ReproduceScale(
+        name="paper", sequences=200, size=224, frames=10, model="resnet50", epochs=30,
+        batch_size=32, lr=1e-4, frames_per_sequence=0,
+        train_conditions=("clean", "glinty", "residual", "tmf-min"),
+        temporal_conditions=("clean", "glinty"),
+        note=("PAPER SCALE — the paper's protocol (Table 1): 200 sequences of 224x224 px, "
+              "ResNet-50 trained from scratch, Adam 1e-4, cosine annealing, 30 epochs, batch 32, "
+              "70/15/15 split with seed 42.")),
+}
+
+
+class _Skip(Exception):
+    """A stage that cannot run yet (missing input); recorded as skipped, retried next time."""
+
+
+class _Stages:
+    """``OUT/stages.json``: which stages are done, with their wall times."""
+
+    def __init__(self, out: Path) -> None:
+        self.path = out / "stages.json"
+        self.data: dict[str, dict[str, Any]] = (
+            json.loads(self.path.read_text(encoding="utf-8")) if self.path.is_file() else {})
+
+    def done(self, name: str) -> bool:
+        return self.data.get(name, {}).get("status") == "done"
+
+    def run(self, name: str, fn: Callable[[], Any]) -> Any:
+        """Run stage ``fn`` unless done; an ImportError marks it skipped (retried next time)."""
+        if self.done(name):
+            return self.data[name].get("result")
+        t0 = time.perf_counter()
+        try:
+            result = fn()
+            entry = {"status": "done", "result": result}
+        except ImportError as exc:
+            entry = {"status": f"skipped: module not available ({exc})", "result": None}
+            result = None
+        except _Skip as exc:
+            entry = {"status": f"skipped: {exc}", "result": None}
+            result = None
+        entry["seconds"] = round(time.perf_counter() - t0, 2)
+        self.data[name] = entry
+        self._write()
+        return result
+
+    def _write(self) -> None:
+        from wavealt.dataset import atomic_write_text
+
+        atomic_write_text(self.path, json.dumps(self.data, indent=2) + "\n")
+
+
+def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -> list[Path]:
+    """Run the whole pipeline into ``out`` and write ``report.md`` and ``report.html``.
+
+    Parameters
+    ----------
+    out : path
+        Output folder: ``dataset/``, ``runs/<name>/``, ``eval/<name>/``, ``figures/``,
+        ``stages.json``, ``report.md``, ``report.html``.
+    scale : {"quick", "paper"}
+        See the module docstring.
+    progress : bool
+        Progress bars.
+
+    Returns
+    -------
+    list of Path
+        The two report files.
+    """
+    if scale not in SCALES:
+        msg = f"scale must be one of {', '.join(SCALES)}; got {scale!r}"
+        raise ValueError(msg)
+    sc = SCALES[scale]
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    stages = _Stages(out)
+    ds_path = out / "dataset"
+    t_start = time.perf_counter()
+
+    def simulate() -> dict[str, Any]:
+        from wavealt.scenario import preset_config
+        from wavealt.simulate import simulate_dataset
+
+        cfg = preset_config("paper", sequences=sc.sequences, size=sc.size, frames=sc.frames)
+        simulate_dataset(ds_path, cfg, progress=progress)
+        return {"sequences": sc.sequences}
+
+    stages.run("simulate", simulate)
+
+    def figures_dataset() -> list[str]:
+        from wavealt.plots import dataset_figures
+
+        return [str(p) for p in dataset_figures(ds_path, out / "figures")]
+
+    stages.run("figures:dataset", figures_dataset)
+
+    for method in sc.deglint_methods:
+        def deglint(method: str = method) -> dict[str, Any]:
+            from wavealt.deglint import deglint_dataset
+
+            cond = deglint_dataset(ds_path, method=method, window=sc.frames, progress=progress)
+            return {"condition": cond}
+
+        stages.run(f"deglint:{method}", deglint)
+    stages.run("figures:deglint", lambda: _deglint_figures(ds_path, out / "figures", sc.frames))
+
+    from wavealt.dataset import Dataset
+
+    conditions = Dataset(ds_path).conditions
+    runs: dict[str, Path] = {}
+    for cond in sc.train_conditions + tuple(f"temporal:{c}" for c in sc.temporal_conditions):
+        temporal = cond.startswith("temporal:")
+        c = cond.split(":")[-1]
+        name = f"{'temporal-' if temporal else ''}{c}"
+        if c not in conditions:
+            stages.data[f"train:{name}"] = {"status": f"skipped: condition {c!r} not in dataset",
+                                            "seconds": 0.0}
+            continue
+
+        def train_one(c: str = c, name: str = name, temporal: bool = temporal) -> dict[str, Any]:
+            from wavealt.altimetry.train import TrainConfig, train
+
+            cfg = TrainConfig(condition=c, model=sc.model, epochs=sc.epochs,
+                              batch_size=sc.batch_size, lr=sc.lr,
+                              frames_per_sequence=0 if temporal else sc.frames_per_sequence,
+                              temporal=temporal)
+            res = train(ds_path, out / "runs" / name, cfg, resume=True, progress=progress)
+            return {"best_epoch": res["best_epoch"], "best_val_mae_m": res["best_val_mae_m"],
+                    "train_seconds": res["seconds"]}
+
+        if stages.run(f"train:{name}", train_one) is not None or stages.done(f"train:{name}"):
+            runs[name] = out / "runs" / name
+
+    evals: dict[str, dict[str, Any]] = {}
+    specs = {f"cnn-{n}": f"cnn:{p}" for n, p in runs.items()}
+    specs["dispersion"] = "dispersion"
+    specs["constant"] = "constant"
+    for name, spec in specs.items():
+        def eval_one(spec: str = spec, name: str = name) -> dict[str, Any]:
+            from wavealt.evaluation import evaluate
+
+            if spec == "dispersion":
+                import wavealt.altimetry.dispersion  # noqa: F401  (ImportError -> skipped)
+            res = evaluate(ds_path, spec, conditions=conditions, out=out / "eval" / name,
+                           progress=progress)
+            return {"estimator": res.estimator, "metrics": res.metrics,
+                    "baseline": res.baseline, "baseline_label": res.baseline_label}
+
+        key = f"evaluate:{name}"
+        prev = stages.data.get(key, {}).get("result") or {}
+        if stages.done(key) and sorted(prev.get("metrics", {})) != sorted(conditions):
+            del stages.data[key]  # new conditions appeared (e.g. deglinting landed): redo
+        r = stages.run(key, eval_one)
+        if r is not None:
+            evals[name] = r
+    stages.data["total"] = {"status": "done",
+                            "seconds": round(time.perf_counter() - t_start, 2)}
+    stages._write()
+    md = build_report_markdown(out, sc, stages.data, evals, runs)
+    from wavealt.dataset import atomic_write_text
+
+    atomic_write_text(out / "report.md", md)
+    atomic_write_text(out / "report.html", markdown_to_html(md, base=out))
+    return [out / "report.md", out / "report.html"]
+
+
+def _deglint_figures(ds_path: Path, fig_dir: Path, window: int) -> list[str]:
+    """Fig. 4 (TMF decomposition) and Fig. 7 (pixel trace) of the first test sequence."""
+    import numpy as np
+
+    from wavealt.dataset import Dataset
+    from wavealt.plots import figure_pixel_trace, figure_tmf_decomposition
+
+    ds = Dataset(ds_path)
+    if "residual" not in ds.conditions:
+        msg = "no residual condition (the TMF deglint stage did not run)"
+        raise _Skip(msg)
+    rec = (ds.split("test") or ds.records)[0]
+    glinty = ds.read_frames("glinty", rec.sequence_id)
+    clean = ds.read_frames("clean", rec.sequence_id)
+    resid = ds.read_frames("residual", rec.sequence_id)
+    t = glinty.shape[0] // 2
+    # paper eq. (5)-(6): residual = I - G_hat, so the removed baseline is I - residual
+    removed = np.clip(glinty[t] - resid[t], 0.0, 1.0)
+    return [str(figure_tmf_decomposition(glinty[t], resid[t], removed, clean[t],
+                                         fig_dir / "fig4_tmf_decomposition.png")),
+            str(figure_pixel_trace(glinty, fig_dir / "fig7_pixel_trace.png", window=window))]
+
+
+# -- the report -------------------------------------------------------------------------
+def _f(x: Any, signed: bool = False) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "—"
+    return f"{x:+.2f}" if signed else f"{x:.2f}"
+
+
+def _label(c: str) -> str:
+    from wavealt.evaluation import CONDITION_LABELS
+
+    return CONDITION_LABELS.get(c, c)
+
+
+def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
+                          evals: dict[str, dict[str, Any]], runs: dict[str, Path]) -> str:
+    """The report text (markdown); figures are referenced relative to ``out``."""
+    import numpy as np
+    import torch
+
+    from wavealt import __version__
+    from wavealt.evaluation import PAPER_TABLE2
+
+    L: list[str] = [f"# wavealt reproduce — scale `{sc.name}`", "", f"> {sc.note}", "",
+                    f"wavealt {__version__}, torch {torch.__version__}, numpy {np.__version__}, "
+                    f"python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. "
+                    f"Total wall time of this invocation: {_f(stages.get('total', {}).get('seconds'))} s "
+                    "(stages done by an earlier invocation are not re-timed; see the stage table). "
+                    f"Sum of all stage times: {_f(sum(v.get('seconds') or 0.0 for k, v in stages.items() if k != 'total' and isinstance(v, dict)))} s.",
+                    "",
+                    "Protocol notes: splits are the manifest's 70/15/15 by sequence (seed 42), so no "
+                    "frame of a test sequence is seen in training. Training augments by a random crop "
+                    "*without resize* (the altitude lives in the pixel scale of the waves), H/V flips "
+                    "and brightness/contrast/saturation jitter; evaluation uses the deterministic centre "
+                    "crop of the same size and reports, per test sequence, the mean of its per-frame "
+                    "predictions (the temporal CNN sees all frames at once, stacked as grayscale "
+                    "channels). n counts sequences, as in the paper's Table 2.",
+                    ""]
+    main = evals.get("cnn-clean")
+    L += ["## Table 2 — CNN trained on clean, tested per condition (ours vs the paper)", ""]
+    if main:
+        m = main["metrics"]
+        n = sorted({v["n"] for v in m.values()})
+        L += [f"Ours: n = {', '.join(map(str, n))} test sequences per condition; the paper: n = 30.",
+              "", "| Condition | MAE ours | MAE paper | RMSE ours | RMSE paper | Bias ours | Bias paper | Max ours | Max paper |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for c in [c for c in ("clean", "glinty", "residual") if c in m] + \
+                 [c for c in m if c not in ("clean", "glinty", "residual")]:
+            v, p = m[c], PAPER_TABLE2.get(c, {})
+            L.append(f"| {_label(c)} | {_f(v['mae_m'])} | {_f(p.get('mae_m'))} | {_f(v['rmse_m'])} | "
+                     f"{_f(p.get('rmse_m'))} | {_f(v['bias_m'], True)} | {_f(p.get('bias_m'), True)} | "
+                     f"{_f(v['max_abs_err_m'])} | {_f(p.get('max_abs_err_m'))} |")
+        if "clean" in m and "glinty" in m:
+            L.append(f"| Glint penalty | {_f(m['glinty']['mae_m'] - m['clean']['mae_m'], True)} | +0.67 | | | | | | |")
+        b = main["baseline"]
+        L.append(f"| Constant baseline ({main['baseline_label']}) | {_f(b['mae_m'])} | — | {_f(b['rmse_m'])} | — | "
+                 f"{_f(b['bias_m'], True)} | — | {_f(b['max_abs_err_m'])} | — |")
+        L += ["", "![Fig. 5](eval/cnn-clean/fig5_predicted_vs_actual.png)", "",
+              "![Fig. 6](eval/cnn-clean/fig6_error_distribution.png)", ""]
+    else:
+        L += ["(not available: the CNN trained on clean did not run; see the stage table)", ""]
+
+    # every method side by side
+    conds: list[str] = []
+    for e in evals.values():
+        conds += [c for c in e["metrics"] if c not in conds]
+    L += ["## Every method × every test condition — MAE (m) [bias (m)]", "",
+          "Rows: CNN per training condition (beyond the paper: its conclusion proposes training on "
+          "deglinted images), the temporal CNN (frames stacked as channels), the physics-based "
+          "dispersion altimeter, and the constant baseline (training-set mean altitude).", "",
+          "| Method | " + " | ".join(_label(c) for c in conds) + " |",
+          "|---|" + "---:|" * len(conds)]
+    const_mae = None
+    if "constant" in evals:
+        const_mae = evals["constant"]["metrics"][conds[0]]["mae_m"] if conds else None
+    for name, e in evals.items():
+        cells = []
+        for c in conds:
+            v = e["metrics"].get(c)
+            cells.append("—" if v is None else f"{_f(v['mae_m'])} [{_f(v['bias_m'], True)}]"
+                         + ("" if v["n"] == e["metrics"][conds[0]]["n"] else f" n={v['n']}"))
+        L.append(f"| {e['estimator']} | " + " | ".join(cells) + " |")
+    skipped = {k: v["status"] for k, v in stages.items()
+               if isinstance(v, dict) and str(v.get("status", "")).startswith("skipped")}
+    if skipped:
+        L += ["", "Not run: " + "; ".join(f"`{k}` {v}" for k, v in skipped.items())]
+
+    # honesty: what beats the constant baseline
+    L += ["", "## What beats the constant baseline", ""]
+    if const_mae is None or not math.isfinite(const_mae):
+        L.append("The constant baseline was not evaluated.")
+    else:
+        beat, lose = [], []
+        for name, e in evals.items():
+            if name == "constant":
+                continue
+            for c, v in e["metrics"].items():
+                if not math.isfinite(v["mae_m"]):
+                    continue
+                item = f"{e['estimator']} on {_label(c)} ({_f(v['mae_m'])} m vs {_f(const_mae)} m)"
+                (beat if v["mae_m"] < 0.9 * const_mae else lose).append(item)
+        L.append(f"The constant baseline (always the training-set mean altitude) scores MAE "
+                 f"{_f(const_mae)} m on every condition. We count a method as beating it only "
+                 "when its MAE is at least 10 % lower.")
+        L += ["", f"**Beats it ({len(beat)}):** " + ("; ".join(beat) if beat else "nothing."), "",
+              f"**Does not beat it ({len(lose)}):** " + ("; ".join(lose) if lose else "nothing."),
+              "", "A test split this small (see n above) makes differences of a few tenths of a "
+              "metre noise; a model that does not beat the constant has not learnt altitude, "
+              "whatever its MAE looks like next to the paper's."]
+
+    # figures
+    L += ["", "## Figures", ""]
+    figs = [("Fig. 2 — clean vs glinty frames", "figures/fig2_examples.png"),
+            ("Fig. 3 — generation steps", "figures/fig3_generation.png"),
+            ("Fig. 4 — TMF decomposition", "figures/fig4_tmf_decomposition.png"),
+            ("Fig. 7 — per-pixel trace and rolling minimum", "figures/fig7_pixel_trace.png")]
+    for name in evals:
+        figs += [(f"Fig. 5 — {evals[name]['estimator']}", f"eval/{name}/fig5_predicted_vs_actual.png"),
+                 (f"Fig. 6 — {evals[name]['estimator']}", f"eval/{name}/fig6_error_distribution.png")]
+    for title, rel in figs:
+        if (out / rel).is_file():
+            L += [f"### {title}", "", f"![{title}]({rel})", ""]
+        else:
+            L += [f"### {title}", "", "(not produced: its stage did not run)", ""]
+
+    # training curves summary
+    L += ["## Training runs", "", "| Run | Model | Train condition | Temporal | Best epoch | Best val MAE (m) | Train time (s) |",
+          "|---|---|---|---|---:|---:|---:|"]
+    for name, path in runs.items():
+        try:
+            info = json.loads((path / "config.json").read_text(encoding="utf-8"))
+            hist = json.loads((path / "history.json").read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError):
+            continue
+        best = min(hist, key=lambda h: h["val_mae_m"])
+        t = info["train"]
+        L.append(f"| {name} | {t['model']} | {t['condition']} | {t['temporal']} | {best['epoch']} | "
+                 f"{_f(best['val_mae_m'])} | {_f(sum(h['seconds'] for h in hist))} |")
+
+    # stage times and configs
+    L += ["", "## Run times", "", "| Stage | Status | Seconds |", "|---|---|---:|"]
+    for k, v in stages.items():
+        if isinstance(v, dict):
+            L.append(f"| {k} | {v.get('status', '')} | {_f(v.get('seconds'))} |")
+    L += ["", "## Exact configs", "", "Dataset (`dataset/dataset.json`):", "", "```json",
+          json.dumps(json.loads((out / "dataset" / "dataset.json").read_text(encoding="utf-8"))["config"],
+                     indent=2) if (out / "dataset" / "dataset.json").is_file() else "{}", "```", ""]
+    for name, path in runs.items():
+        cfg = path / "config.json"
+        if cfg.is_file():
+            info = json.loads(cfg.read_text(encoding="utf-8"))
+            show = {k: info[k] for k in ("train", "stats", "splits", "objective", "threads") if k in info}
+            L += [f"Run `{name}` (`runs/{name}/config.json`, abridged):", "", "```json",
+                  json.dumps(show, indent=2), "```", ""]
+    return "\n".join(L) + "\n"
+
+
+_IMG = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
+
+
+def _inline(text: str) -> str:
+    t = html.escape(text, quote=False)
+    t = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", t)
+    return re.sub(r"`([^`]+)`", r"<code>\1</code>", t)
+
+
+def markdown_to_html(md: str, *, base: Path) -> str:
+    """A self-contained HTML page from the report's small markdown subset (headings, tables,
+    paragraphs, quotes, code blocks, images embedded as base64 PNG)."""
+    body: list[str] = []
+    lines = md.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if line.startswith("```"):
+            j = i + 1
+            while j < len(lines) and not lines[j].startswith("```"):
+                j += 1
+            body.append("<pre>" + html.escape("\n".join(lines[i + 1:j])) + "</pre>")
+            i = j + 1
+            continue
+        if line.startswith("|"):
+            rows = []
+            while i < len(lines) and lines[i].startswith("|"):
+                rows.append([c.strip() for c in lines[i].strip().strip("|").split("|")])
+                i += 1
+            head, data = rows[0], [r for r in rows[1:] if not all(set(c) <= set("-:") for c in r)]
+            body.append("<table><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr>"
+                        + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>"
+                                  for r in data) + "</table>")
+            continue
+        m = _IMG.fullmatch(line.strip())
+        if m:
+            p = base / m.group(2)
+            if p.is_file():
+                data = base64.b64encode(p.read_bytes()).decode("ascii")
+                body.append(f'<figure><img alt="{html.escape(m.group(1))}" '
+                            f'src="data:image/png;base64,{data}"></figure>')
+        elif line.startswith("#"):
+            level = len(line) - len(line.lstrip("#"))
+            body.append(f"<h{level}>{_inline(line[level:].strip())}</h{level}>")
+        elif line.startswith("> "):
+            body.append(f"<blockquote>{_inline(line[2:])}</blockquote>")
+        elif line.strip():
+            body.append(f"<p>{_inline(line)}</p>")
+        i += 1
+    style = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em}"
+             "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;"
+             "padding:3px 8px;text-align:right}td:first-child,th:first-child{text-align:left}"
+             "img{max-width:100%}pre{background:#f4f4f4;padding:8px;overflow:auto}"
+             "blockquote{background:#fff4d6;border-left:4px solid #e0a000;padding:6px 12px}")
+    return ("<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>wavealt reproduce</title>"
+            f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+__all__ = ["SCALES", "ReproduceScale", "build_report_markdown", "markdown_to_html", "reproduce"]

@@ -1,0 +1,78 @@
+"""Evaluation: hand-computed metrics, exact constant baseline, files, estimators, bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from wavealt.dataset import Dataset
+from wavealt.evaluation import (METRIC_KEYS, ConstantEstimator, altitude_metrics, evaluate,
+                                parse_estimator, train_split_mean_m)
+
+
+def test_metrics_match_hand_computed_example() -> None:
+    m = altitude_metrics([2.0, 3.0, 7.0], [1.0, 4.0, 4.0])  # errors +1, -1, +3
+    assert m == {"n": 3, "mae_m": 5 / 3, "rmse_m": math.sqrt(11 / 3), "bias_m": 1.0,
+                 "max_abs_err_m": 3.0}
+    assert tuple(m) == METRIC_KEYS
+
+
+def test_metrics_leave_out_failed_estimates() -> None:
+    m = altitude_metrics([2.0, math.nan], [1.0, 4.0])
+    assert m["n"] == 1 and m["mae_m"] == 1.0
+    assert math.isnan(altitude_metrics([math.nan], [1.0])["mae_m"])
+    with pytest.raises(ValueError, match="same length"):
+        altitude_metrics([1.0], [1.0, 2.0])
+
+
+def test_constant_baseline_is_exact(tiny_dataset, tmp_path) -> None:
+    ds = Dataset(tiny_dataset)
+    mean = float(np.mean([r.altitude_m for r in ds.split("train")]))
+    assert train_split_mean_m(ds) == mean
+    res = evaluate(tiny_dataset, "constant", conditions=["clean", "glinty"], out=tmp_path,
+                   progress=False, figures=False)
+    truth = np.array([r.altitude_m for r in ds.split("test")])
+    for c in ("clean", "glinty"):
+        assert res.metrics[c]["bias_m"] == pytest.approx(mean - truth.mean(), abs=1e-12)
+        assert res.metrics[c]["mae_m"] == pytest.approx(np.mean(np.abs(mean - truth)), abs=1e-12)
+        np.testing.assert_array_equal(res.predictions[c]["pred_m"], mean)
+    on_disk = json.loads((tmp_path / "metrics.json").read_text())
+    assert set(on_disk) == {"clean", "glinty"}
+    assert all(tuple(v) == METRIC_KEYS for v in on_disk.values())
+    with (tmp_path / "predictions.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 2 * len(truth)
+    table = (tmp_path / "table.md").read_text()
+    assert "Glint penalty" in table and "Baseline: constant" in table
+
+
+def test_cnn_estimator_and_figures(tiny_dataset, tmp_path) -> None:
+    from wavealt.altimetry.train import TrainConfig, train
+
+    run = tmp_path / "run"
+    train(tiny_dataset, run, TrainConfig(condition="bright", model="resnet-tiny", epochs=1,
+                                         batch_size=8), progress=False)
+    res = evaluate(tiny_dataset, f"cnn:{run}", conditions=["bright", "clean"],
+                   out=tmp_path / "ev", progress=False)
+    assert res.metrics["bright"]["n"] == len(Dataset(tiny_dataset).split("test"))
+    assert (tmp_path / "ev" / "fig5_predicted_vs_actual.png").stat().st_size > 0
+    assert (tmp_path / "ev" / "fig6_error_distribution.png").stat().st_size > 0
+    info = json.loads((run / "config.json").read_text())
+    const = parse_estimator(f"constant:{run}")
+    assert isinstance(const, ConstantEstimator)
+    assert const.altitude_m == info["stats"]["target_mean_m"]
+
+
+def test_bad_input(tiny_dataset, tmp_path) -> None:
+    with pytest.raises(ValueError, match="unknown estimator 'magic'"):
+        evaluate(tiny_dataset, "magic", progress=False)
+    with pytest.raises(FileNotFoundError, match="has no best.pt"):
+        evaluate(tiny_dataset, f"cnn:{tmp_path}", progress=False)
+    with pytest.raises(FileNotFoundError, match="has no config.json"):
+        evaluate(tiny_dataset, f"constant:{tmp_path}", progress=False)
+    with pytest.raises(FileNotFoundError, match="no condition 'residual'"):
+        evaluate(tiny_dataset, "constant", conditions=["residual"], progress=False)

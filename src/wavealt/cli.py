@@ -137,6 +137,9 @@ def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
         for p in deglint_figures(dataset, dataset / "figures", window=window):
             click.echo(f"figure: {p}")
 
+
+@cli.command()
+@click.argument("dataset", type=click.Path(path_type=Path))
 @click.option("--out", "run", type=click.Path(path_type=Path), required=True,
               help="Run folder for checkpoints, config.json and history.json.")
 @click.option("--condition", default="clean", show_default=True,

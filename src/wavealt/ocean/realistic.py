@@ -136,9 +136,10 @@ def jonswap_omni(k: np.ndarray, *, wind_speed_mps: float, inverse_wave_age: floa
                  gamma: float = 3.3) -> np.ndarray:
     """JONSWAP (Hasselmann et al. 1973) in wavenumber with Elfouhaily's capillary end.
 
-    ``F(k) = alpha/2 k^-3 exp(-5/4 (k_p/k)^2) gamma^r + k^-3 B_h(k)``,
+    ``F(k) = alpha/2 k^-3 exp(-5/4 (k_p/k)^2) gamma^r E(k) + k^-3 B_h(k)``,
     ``r = exp(-(sqrt(k/k_p) - 1)^2 / (2 sigma^2))``, ``sigma = 0.07`` below and ``0.09`` above
-    the peak, ``alpha = 6e-3 sqrt(Omega)``; ``B_h`` is the gravity–capillary curvature of
+    the peak, ``alpha = 6e-3 sqrt(Omega)``, ``E(k) = exp(-Omega/sqrt(10) (sqrt(k/k_p) - 1))``
+    Elfouhaily's hand-over from the gravity range; ``B_h`` is the gravity–capillary curvature of
     Elfouhaily et al. (1997) so that the spectrum has the same physical small-scale end.
     Units as :func:`elfouhaily_omni`.
     """
@@ -153,7 +154,11 @@ def jonswap_omni(k: np.ndarray, *, wind_speed_mps: float, inverse_wave_age: floa
     j_p = gamma ** np.exp(-((np.sqrt(kk / k_p) - 1.0) ** 2) / (2.0 * sig**2))
     l_pm = np.exp(-1.25 * (k_p / kk) ** 2)
     alpha = 6e-3 * math.sqrt(om)
-    out[nz] = (0.5 * alpha * l_pm * j_p + _capillary_curvature(kk, u, l_pm * j_p)) / kk**3
+    # Elfouhaily's hand-over (eq. 32): the gravity range's curvature fades well above the
+    # peak so that the capillary term alone sets the small-scale end
+    handover = np.exp(-om / math.sqrt(10.0) * (np.sqrt(kk / k_p) - 1.0))
+    out[nz] = (0.5 * alpha * l_pm * j_p * handover
+               + _capillary_curvature(kk, u, l_pm * j_p)) / kk**3
     return out
 
 

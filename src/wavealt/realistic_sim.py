@@ -29,7 +29,7 @@ import numpy as np
 from wavealt.ocean.glitter import glint_reflectance, whitecap_field, whitecap_fraction
 from wavealt.ocean.optics import fresnel_unpolarised, sun_vector
 from wavealt.ocean.realistic import RealisticSea, SeaSpectrum
-from wavealt.ocean.sky import SkyModel, reflect
+from wavealt.ocean.sky import SkyModel, reflect_components
 from wavealt.scenario import Scenario, SimConfig
 from wavealt.sensor import SensorModel, attitude_view_vectors, capture_pair, vignetting_map
 
@@ -71,16 +71,24 @@ def sensor_of(config: SimConfig) -> SensorModel:
                        jpeg_quality=config.jpeg_quality, h264_crf=config.h264_crf)
 
 
-def make_sea(scenario: Scenario, config: SimConfig, draws: RealisticDraws) -> RealisticSea:
-    """The physical sea of ``scenario`` on the pixel-GSD grid (see :mod:`wavealt.ocean.realistic`)."""
+def make_sea(scenario: Scenario, config: SimConfig, draws: RealisticDraws, *,
+             margin_px: int = 0) -> RealisticSea:
+    """The physical sea of ``scenario`` on the pixel-GSD grid (see :mod:`wavealt.ocean.realistic`).
+
+    The periodic domain spans ``domain_pad`` footprints, and at least the footprint plus
+    ``margin_px`` on each side (room for the shift of a tilted camera).  Waves longer than
+    the domain are the sea's long-wave modes, so a small pad shows no repetition.
+    """
     from wavealt.simulate import domain_points
 
     size = int(config.size)
+    n = max(domain_points(size, config.domain_pad),
+            domain_points(size + 2 * abs(int(margin_px)), 1.0))
     spec = SeaSpectrum(wind_speed_mps=scenario.wind_speed_mps,
                        wind_dir_rad=math.radians(scenario.wind_dir_deg), spectrum=config.spectrum,
                        spreading=config.spreading, spreading_s=draws.spreading_s,
                        inverse_wave_age=draws.inverse_wave_age)
-    return RealisticSea(spec, n=domain_points(size, config.domain_pad),
+    return RealisticSea(spec, n=n,
                         dx_m=scenario.altitude_m / scenario.focal_px,
                         rng=np.random.default_rng([scenario.seed, 1]))
 
@@ -96,18 +104,25 @@ def render_radiance(sx: np.ndarray, sy: np.ndarray, view: np.ndarray, sun: np.nd
     sky = SkyModel(sun, diffuse_ratio=DIFFUSE_RATIO)
     mu_s = float(sun[2])
     e_d = mu_s * (1.0 + DIFFUSE_RATIO)
-    dirs, ndc = reflect(view, sx, sy)
-    fres = fresnel_unpolarised(ndc, refractive_index).astype(np.float32)[..., np.newaxis]
-    rrs = np.asarray(WATER_RRS, dtype=np.float32)
-    clean = fres * sky.radiance(dirs) + (1.0 - fres) * (rrs * np.float32(e_d))
+    # channel by channel on contiguous (T, H, W) arrays: far faster than a trailing axis of 3
+    rx, ry, rz, ndc = reflect_components(view, sx, sy)
+    fres = fresnel_unpolarised(ndc, refractive_index).astype(np.float32)
+    sky_rgb = sky.radiance_channels(rx, ry, rz)
     rho = glint_reflectance(sx, sy, view, sun, subpixel_slope_variance=subpixel_slope_variance,
                             refractive_index=refractive_index)
-    glint = (np.float32(glint_severity * mu_s / math.pi) * rho)[..., np.newaxis]
+    glint = np.float32(glint_severity * mu_s / math.pi) * rho
     if foam is not None:
-        f = foam[..., np.newaxis]
-        clean = (1.0 - f) * clean + f * np.float32(FOAM_ALBEDO * e_d / math.pi)
-        glint = (1.0 - f) * glint
-    return clean.astype(np.float32), (clean + glint).astype(np.float32)
+        glint *= 1.0 - foam
+        foam_rad = np.float32(FOAM_ALBEDO * e_d / math.pi) * foam
+    clean, glinty = [], []
+    for sky_c, rrs in zip(sky_rgb, WATER_RRS):
+        c = fres * sky_c + (1.0 - fres) * np.float32(rrs * e_d)
+        if foam is not None:
+            c = (1.0 - foam) * c + foam_rad
+        clean.append(c)
+        glinty.append(c + glint)
+    return (np.stack(clean, axis=-1).astype(np.float32, copy=False),
+            np.stack(glinty, axis=-1).astype(np.float32, copy=False))
 
 
 def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
@@ -121,10 +136,10 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
 
     size = int(config.size)
     draws = realistic_draws(scenario, config)
-    sea = make_sea(scenario, config, draws)
     view, shift = attitude_view_vectors(size, size, scenario.focal_px,
                                         roll_rad=math.radians(draws.roll_deg),
                                         pitch_rad=math.radians(draws.pitch_deg))
+    sea = make_sea(scenario, config, draws, margin_px=max(abs(shift[0]), abs(shift[1])))
     times = np.arange(scenario.frames) / scenario.fps
     velocity = scenario.camera_velocity_mps
     fields = list(sea.iter_fields(times, crop=(size, size), velocity_mps=velocity,

@@ -266,6 +266,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "realistic": {
         "renderer": "realistic",
+        "domain_pad": 1.25,
         "altitude_m": (1.0, 15.0),
         "wind_speed_mps": (1.5, 10.5),
         "sun_zenith_deg": (5.0, 75.0),

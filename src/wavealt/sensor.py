@@ -191,9 +191,23 @@ def _h264(frames8: np.ndarray, crf: int, fps: float) -> np.ndarray:
     return np.stack(dec)
 
 
+#: Bits of the analogue-to-digital converter; the sRGB curve is applied to its codes by table.
+ADC_BITS = 12
+_ADC_MAX = 2**ADC_BITS - 1
+_SRGB_LUT = srgb_encode(np.arange(_ADC_MAX + 1, dtype=np.float32) / np.float32(_ADC_MAX))
+
+
 def encode(linear: np.ndarray, sensor: SensorModel, *, fps: float = 30.0) -> np.ndarray:
-    """Linear frames ``(T, H, W, 3)`` -> stored frames: sRGB, 8-bit, compression; float32 [0, 1]."""
-    y = srgb_encode(linear) if sensor.srgb else np.clip(linear, 0.0, 1.0).astype(np.float32)
+    """Linear frames ``(T, H, W, 3)`` -> stored frames, float32 in [0, 1].
+
+    A 12-bit ADC code, then (if ``sensor.srgb``) the sRGB curve by look-up table, then
+    optionally 8-bit compression.
+    """
+    lin = np.clip(linear, 0.0, 1.0)
+    if sensor.srgb:
+        y = _SRGB_LUT[np.rint(lin * np.float32(_ADC_MAX)).astype(np.int16)]
+    else:
+        y = lin.astype(np.float32)
     if sensor.compression == "none":
         return y
     q = np.rint(y * 255.0).astype(np.uint8)

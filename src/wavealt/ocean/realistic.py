@@ -259,6 +259,17 @@ class SeaSpectrum:
             out = np.where(k > 0, self.omni(k) / np.where(k > 0, k, 1.0), 0.0)
         return out * self.spreading_fn(k, theta)
 
+    def density_pair(self, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(S(k), S(-k))``: the density toward ``k`` and toward ``-k`` (one ``F`` evaluation)."""
+        kx = np.asarray(kx, dtype=np.float64)
+        ky = np.asarray(ky, dtype=np.float64)
+        k = np.sqrt(kx**2 + ky**2)
+        theta = np.arctan2(ky, kx) - self.wind_dir_rad
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f_over_k = np.where(k > 0, self.omni(k) / np.where(k > 0, k, 1.0), 0.0)
+        return (f_over_k * self.spreading_fn(k, theta),
+                f_over_k * self.spreading_fn(k, theta + math.pi))
+
     def slope_variance_between(self, k_lo: float, k_hi: float, *, points: int = 4000) -> float:
         """``int_{k_lo}^{k_hi} k^2 F(k) dk`` (m^2/m^2), trapezoid on a log grid."""
         if not k_hi > k_lo:
@@ -318,8 +329,7 @@ class RealisticSea:
         self.ky = k1[:, np.newaxis]
         self.k = np.sqrt(self.kx**2 + self.ky**2)
         self.dk = 2.0 * np.pi / (n * self.dx_m)
-        s = spectrum.density(self.kx, self.ky)
-        s_neg = spectrum.density(-self.kx, -self.ky)
+        s, s_neg = spectrum.density_pair(self.kx, self.ky)
         # half plane P: kx > 0, or kx == 0 and ky > 0; Nyquist lines carry nothing
         half = (self.kx > 0) | ((self.kx == 0) & (self.ky > 0))
         half = np.broadcast_to(half, (n, n)).copy()

@@ -33,10 +33,6 @@ def _gradation(cos_z: np.ndarray, a: float, b: float) -> np.ndarray:
     return 1.0 + a * np.exp(b / np.maximum(cos_z, 1e-3))
 
 
-def _indicatrix(chi: np.ndarray, c: float, d: float, e: float) -> np.ndarray:
-    return 1.0 + c * (np.exp(d * chi) - math.exp(d * math.pi / 2.0)) + e * np.cos(chi) ** 2
-
-
 class SkyModel:
     """Clear-sky radiance over the upper hemisphere, equation (CIE) of the module docstring.
 
@@ -83,21 +79,44 @@ class SkyModel:
 
     def relative_luminance(self, directions: np.ndarray) -> np.ndarray:
         """``L / L_z`` for unit ``directions`` ``(..., 3)`` (below-horizon rays clamp to it)."""
-        a, b, c, d, e = CIE_CLEAR_SKY
         dirs = np.asarray(directions)
-        cos_z = np.clip(dirs[..., 2], 0.0, 1.0)
-        cos_chi = np.clip(dirs @ self.sun.astype(dirs.dtype), -1.0, 1.0)
+        return self._relative_luminance(dirs[..., 0], dirs[..., 1], dirs[..., 2])
+
+    def _relative_luminance(self, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray) -> np.ndarray:
+        a, b, c, d, e = CIE_CLEAR_SKY
+        sx, sy, sz = (dx.dtype.type(v) for v in self.sun)
+        cos_z = np.clip(dz, 0.0, 1.0)
+        cos_chi = np.clip(dx * sx + dy * sy + dz * sz, -1.0, 1.0)
         chi = np.arccos(cos_chi)
-        return self._norm * _indicatrix(chi, c, d, e) * _gradation(cos_z, a, b)
+        f = 1.0 + c * (np.exp(d * chi) - math.exp(d * math.pi / 2.0)) + e * cos_chi * cos_chi
+        return self._norm * f * _gradation(cos_z, a, b)
+
+    def radiance_channels(self, dx: np.ndarray, dy: np.ndarray,
+                          dz: np.ndarray) -> list[np.ndarray]:
+        """Sky radiance as three arrays (R, G, B) shaped like the direction components."""
+        lum = self._relative_luminance(dx, dy, dz) * dx.dtype.type(self.zenith_radiance)
+        w = 1.0 - np.clip(dz, 0.0, 1.0)
+        w *= w
+        return [lum * (z + w * (h - z)) for z, h in
+                zip(self.zenith_rgb.astype(dx.dtype), self.horizon_rgb.astype(dx.dtype))]
 
     def radiance(self, directions: np.ndarray) -> np.ndarray:
         """Sky radiance ``(..., 3)`` float32 along unit ``directions`` ``(..., 3)``, E_sun/sr."""
         dirs = np.asarray(directions, dtype=np.float32)
-        lum = self.relative_luminance(dirs).astype(np.float32) * np.float32(self.zenith_radiance)
-        w = (1.0 - np.clip(dirs[..., 2], 0.0, 1.0))[..., np.newaxis] ** 2
-        colour = ((1.0 - w) * self.zenith_rgb.astype(np.float32)
-                  + w * self.horizon_rgb.astype(np.float32))
-        return (lum[..., np.newaxis] * colour).astype(np.float32)
+        return np.stack(self.radiance_channels(dirs[..., 0], dirs[..., 1], dirs[..., 2]),
+                        axis=-1).astype(np.float32)
+
+
+def reflect_components(view: np.ndarray, slope_x: np.ndarray, slope_y: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`reflect` as separate arrays ``(r_x, r_y, r_z, n_dot_c)``, float32."""
+    sx = np.asarray(slope_x, dtype=np.float32)
+    sy = np.asarray(slope_y, dtype=np.float32)
+    inv = 1.0 / np.sqrt(1.0 + sx * sx + sy * sy)
+    cx, cy, cz = (np.ascontiguousarray(view[..., i], dtype=np.float32) for i in range(3))
+    ndc = (cz - sx * cx - sy * cy) * inv
+    two_ndc_inv = 2.0 * ndc * inv  # 2 (N.c) times the normal's common factor
+    return -two_ndc_inv * sx - cx, -two_ndc_inv * sy - cy, two_ndc_inv - cz, ndc
 
 
 def reflect(view: np.ndarray, slope_x: np.ndarray, slope_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -115,12 +134,8 @@ def reflect(view: np.ndarray, slope_x: np.ndarray, slope_y: np.ndarray) -> tuple
         ``r = 2 (N . c) N - c``, the sky direction seen in the facet.
     n_dot_c : (..., H, W) float32
     """
-    inv = 1.0 / np.sqrt(1.0 + slope_x * slope_x + slope_y * slope_y)
-    nx, ny, nz = -slope_x * inv, -slope_y * inv, inv
-    cx, cy, cz = view[..., 0], view[..., 1], view[..., 2]
-    ndc = nx * cx + ny * cy + nz * cz
-    r = np.stack([2 * ndc * nx - cx, 2 * ndc * ny - cy, 2 * ndc * nz - cz], axis=-1)
-    return r.astype(np.float32), ndc.astype(np.float32)
+    rx, ry, rz, ndc = reflect_components(view, slope_x, slope_y)
+    return np.stack([rx, ry, rz], axis=-1), ndc
 
 
-__all__ = ["CIE_CLEAR_SKY", "SkyModel", "reflect"]
+__all__ = ["CIE_CLEAR_SKY", "SkyModel", "reflect", "reflect_components"]

@@ -29,6 +29,10 @@ from wavealt._checks import check_finite_number
 CIE_CLEAR_SKY = (-1.0, -0.32, 10.0, -3.0, 0.45)
 
 
+def _indicatrix(chi: np.ndarray, c: float, d: float, e: float) -> np.ndarray:
+    return 1.0 + c * (np.exp(d * chi) - math.exp(d * math.pi / 2.0)) + e * np.cos(chi) ** 2
+
+
 def _gradation(cos_z: np.ndarray, a: float, b: float) -> np.ndarray:
     return 1.0 + a * np.exp(b / np.maximum(cos_z, 1e-3))
 

@@ -98,3 +98,10 @@ def test_realistic_dataset_folder(tmp_path):
     assert header.startswith("sequence_id,split,altitude_m,wind_speed_mps")
     assert sorted(p.name for p in (out / "glinty").iterdir()) == ["seq_00000", "seq_00001"]
     assert len(list((out / "glinty" / "seq_00000").glob("*.png"))) == 4
+
+
+def test_figure_presets_writes_a_png(tmp_path):
+    from wavealt.plots import figure_presets
+
+    out = figure_presets(tmp_path / "presets.png", size=48)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

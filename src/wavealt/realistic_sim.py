@@ -152,7 +152,8 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
         if frac > 0:
             n = sea.n
             field = whitecap_field((n, n), dx_m=sea.dx_m, fraction=frac,
-                                   rng=np.random.default_rng([scenario.seed, 3]))
+                                   rng=np.random.default_rng([scenario.seed, 3]),
+                                   wind_dir_rad=math.radians(scenario.wind_dir_deg))
             # foam rides with the water: the camera sees it drift by -v t
             r0, c0 = (n - size) // 2 + shift[0], (n - size) // 2 + shift[1]
             foam = np.empty((len(times), size, size), dtype=np.float32)

@@ -118,27 +118,45 @@ def whitecap_fraction(wind_speed_mps: float) -> float:
 
 
 def whitecap_field(shape: tuple[int, int], *, dx_m: float, fraction: float, rng,
-                   patch_m: float = 0.4) -> np.ndarray:
-    """A foam-coverage map in [0, 1] with mean close to ``fraction``, ``shape`` float32.
+                   patch_m: float = 1.5, wind_dir_rad: float = 0.0) -> np.ndarray:
+    """A periodic foam-cover map in [0, 1] whose mean is ``fraction``, ``shape`` float32.
 
-    Thresholded Gaussian noise low-passed at the physical scale ``patch_m`` (metres, so the
-    patches shrink in pixels as the camera climbs, like the waves), with a soft edge.
+    A Gaussian random field with a power-law (fractal) spectrum between the physical outer
+    scale ``patch_m`` and an inner scale of 1 cm, stretched 2:1 along the wind, is thresholded
+    with a soft, ragged fringe (foam thins out at its edges).  All scales are in metres, so
+    the patches shrink in pixels as the camera climbs, like the waves.
     """
     check_finite_number("fraction", fraction, low=0.0, high=1.0)
     check_finite_number("dx_m", dx_m, low=0.0, low_open=True)
+    check_finite_number("patch_m", patch_m, low=0.0, low_open=True)
     rng = as_rng(rng)
     h, w = shape
     if fraction <= 0:
         return np.zeros(shape, dtype=np.float32)
     noise = rng.standard_normal(shape)
-    fy = np.fft.fftfreq(h, d=dx_m)[:, np.newaxis]
-    fx = np.fft.rfftfreq(w, d=dx_m)[np.newaxis, :]
-    filt = np.exp(-2.0 * (math.pi * patch_m) ** 2 * (fx**2 + fy**2))
+    ky = 2 * math.pi * np.fft.fftfreq(h, d=dx_m)[:, np.newaxis]
+    kx = 2 * math.pi * np.fft.rfftfreq(w, d=dx_m)[np.newaxis, :]
+    c, s = math.cos(wind_dir_rad), math.sin(wind_dir_rad)
+    k_along, k_across = kx * c + ky * s, -kx * s + ky * c
+    k2 = (2.0 * k_along) ** 2 + k_across**2  # patches twice as long along the wind
+    k0 = 2 * math.pi / patch_m
+    filt = (k2 + k0**2) ** -1.4 * np.exp(-k2 * 0.01**2)
     field = np.fft.irfft2(np.fft.rfft2(noise) * filt, s=shape)
     field /= max(float(field.std()), 1e-12)
-    thr = float(np.quantile(field, 1.0 - fraction))
-    edge = 0.15
-    return np.clip((field - thr) / edge + 0.5, 0.0, 1.0).astype(np.float32)
+    edge = 0.6  # fringe width in standard deviations of the field
+
+    def cover(thr: float, f: np.ndarray) -> np.ndarray:
+        return np.clip((f - thr) / edge, 0.0, 1.0) ** 0.7
+
+    sample = field[::2, ::2]
+    lo, hi = -6.0, 6.0
+    for _ in range(40):  # bisection on the threshold: mean cover = fraction
+        mid = 0.5 * (lo + hi)
+        if cover(mid, sample).mean() > fraction:
+            lo = mid
+        else:
+            hi = mid
+    return cover(0.5 * (lo + hi), field).astype(np.float32)
 
 
 __all__ = [

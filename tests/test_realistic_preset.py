@@ -105,3 +105,25 @@ def test_figure_presets_writes_a_png(tmp_path):
 
     out = figure_presets(tmp_path / "presets.png", size=48)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_altitude_reaches_the_sea_only_through_the_grid_spacing():
+    """The spectrum built for a scenario does not depend on the altitude; the grid spacing
+    is the GSD, and the slope budget is the same physical total at every altitude."""
+    import dataclasses
+
+    from wavealt.realistic_sim import make_sea, realistic_draws
+
+    cfg = small(size=64)
+    base = cfg.sample_scenario(0)
+    seas = []
+    for alt in (1.5, 6.0, 15.0):
+        scen = dataclasses.replace(base, altitude_m=alt)
+        sea = make_sea(scen, cfg, realistic_draws(scen, cfg))
+        assert sea.dx_m == pytest.approx(alt / scen.focal_px)
+        seas.append(sea)
+    for attr in ("level", "slope_variance", "k_peak", "spreading_s", "inverse_wave_age"):
+        assert len({getattr(s.spectrum, attr) for s in seas}) == 1, attr
+    totals = [s.resolved_slope_variance + s.long_slope_variance + s.subpixel_slope_variance
+              for s in seas]
+    np.testing.assert_allclose(totals, seas[0].spectrum.slope_variance, rtol=1e-9)

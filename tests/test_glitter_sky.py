@@ -171,3 +171,23 @@ def test_whitecap_field_covers_the_fraction_at_a_physical_scale():
     corr = [np.corrcoef(c[:, :-s].ravel(), c[:, s:].ravel())[0, 1] for c, s in ((coarse, 3), (fine, 12))]
     assert corr[0] == pytest.approx(corr[1], abs=0.1)
     assert whitecap_field((8, 8), dx_m=0.01, fraction=0.0, rng=1).max() == 0
+
+
+def test_non_contiguous_input_gives_the_same_result():
+    rng = np.random.default_rng(4)
+    sx = rng.normal(0, 0.1, (2, 24, 20)).astype(np.float32)
+    sy = rng.normal(0, 0.1, (2, 24, 20)).astype(np.float32)
+    view = np.zeros((20, 24, 3), dtype=np.float32)
+    view[..., 2] = 1.0
+    sun = sun_vector(0.3, 1.0)
+    a = glint_reflectance(sx.transpose(0, 2, 1), sy.transpose(0, 2, 1), view, sun,
+                          subpixel_slope_variance=0.01)
+    b = glint_reflectance(np.ascontiguousarray(sx.transpose(0, 2, 1)),
+                          np.ascontiguousarray(sy.transpose(0, 2, 1)), view, sun,
+                          subpixel_slope_variance=0.01)
+    np.testing.assert_array_equal(a, b)
+    d1, n1 = reflect(view, sx.transpose(0, 2, 1), sy.transpose(0, 2, 1))
+    d2, n2 = reflect(view, np.ascontiguousarray(sx.transpose(0, 2, 1)),
+                     np.ascontiguousarray(sy.transpose(0, 2, 1)))
+    np.testing.assert_array_equal(d1, d2)
+    np.testing.assert_array_equal(n1, n2)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from wavealt.ocean.realistic import RealisticSea, SeaSpectrum
 from wavealt.ocean.sky import SkyModel, reflect_components
 from wavealt.scenario import Scenario, SimConfig
 from wavealt.sensor import SensorModel, attitude_view_vectors, capture_pair, vignetting_map
+
+if TYPE_CHECKING:
+    from wavealt.simulate import SequenceData
 
 #: Remote-sensing reflectance of clear open water in R, G, B, sr^-1 (order of Mobley 1994).
 WATER_RRS = (0.0008, 0.0030, 0.0055)
@@ -126,7 +130,7 @@ def render_radiance(sx: np.ndarray, sy: np.ndarray, view: np.ndarray, sun: np.nd
 
 
 def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
-                                with_height: bool = False):
+                                with_height: bool = False) -> SequenceData:
     """Synthesise and photograph the paired clean/glinty frames of ``scenario``.
 
     Returns a :class:`wavealt.simulate.SequenceData`; its ``slope_x``/``slope_y`` are the

@@ -338,8 +338,10 @@ class RealisticSea:
         self.half = half
         # a: waves travelling along +k, b: waves travelling along -k; E|.|^2 = S dk^2 / 2
         xi = rng.standard_normal((4, n, n))
-        self.a = np.where(half, np.sqrt(s * self.dk**2 / 2.0) * (xi[0] + 1j * xi[1]) / math.sqrt(2.0), 0)
-        self.b = np.where(half, np.sqrt(s_neg * self.dk**2 / 2.0) * (xi[2] + 1j * xi[3]) / math.sqrt(2.0), 0)
+        unit_a = (xi[0] + 1j * xi[1]) / math.sqrt(2.0)  # circular Gaussian, E|.|^2 = 1
+        unit_b = (xi[2] + 1j * xi[3]) / math.sqrt(2.0)
+        self.a = np.where(half, np.sqrt(s * self.dk**2 / 2.0) * unit_a, 0)
+        self.b = np.where(half, np.sqrt(s_neg * self.dk**2 / 2.0) * unit_b, 0)
         self.omega = np.where(half, gravity_capillary_omega(self.k), 0.0)
         self.resolved_slope_variance = float(np.sum(np.where(half, self.k**2 * (s + s_neg), 0.0))
                                              * self.dk**2)

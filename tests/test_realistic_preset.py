@@ -54,6 +54,7 @@ def test_preset_spans_calm_to_fresh_high_to_low_sun_up_to_15_m():
     ({"renderer": "raytrace"}, "renderer must be one of paper, realistic; got 'raytrace'"),
     ({"spectrum": "pm"}, "spectrum must be one of elfouhaily, jonswap; got 'pm'"),
     ({"whitecaps": "yes"}, "whitecaps must be true or false"),
+    ({"compression": "h264", "size": 65}, "compression 'h264' needs an even size; got size 65"),
 ])
 def test_out_of_range_parameters_get_clear_errors(overrides, message):
     with pytest.raises(ValueError, match=message):

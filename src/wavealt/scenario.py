@@ -192,6 +192,9 @@ class SimConfig:
             if not isinstance(getattr(self, name), bool):
                 msg = f"{name} must be true or false; got {getattr(self, name)!r}"
                 raise ValueError(msg)
+        if self.compression == "h264" and self.size % 2:
+            msg = f"compression 'h264' needs an even size; got size {self.size}"
+            raise ValueError(msg)
         SensorModel(full_well_e=self.full_well_e, read_noise_e=self.read_noise_e, srgb=self.srgb,
                     compression=self.compression, jpeg_quality=self.jpeg_quality,
                     h264_crf=self.h264_crf)

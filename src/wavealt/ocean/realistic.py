@@ -292,6 +292,23 @@ class SeaSpectrum:
         return float(np.interp(rng.random(), cdf, th)) + self.wind_dir_rad
 
 
+def _nested_normals(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Standard normals ``(4, n, n)`` drawn mode by mode in order of the square shell
+    ``max(|i|, |j|)`` of the integer wavenumber index, then ``i``, then ``j``.
+
+    So two grids over the same physical domain (same ``dk``) share, from the same generator,
+    the amplitudes of every mode they both hold: a camera twice as high sees the same sea,
+    only with its finest octave moved below the pixel (``tests/test_realistic.py``).
+    """
+    idx = np.rint(np.fft.fftfreq(n) * n).astype(np.int64)
+    ii, jj = np.meshgrid(idx, idx, indexing="ij")
+    shell = np.maximum(np.abs(ii), np.abs(jj))
+    order = np.lexsort((jj.ravel(), ii.ravel(), shell.ravel()))
+    out = np.empty((n * n, 4))
+    out[order] = rng.standard_normal((n * n, 4))
+    return np.moveaxis(out.reshape(n, n, 4), -1, 0)
+
+
 class RealisticSea:
     """The physical sea of :class:`SeaSpectrum` seen on a pixel grid of spacing ``dx_m``.
 
@@ -337,7 +354,8 @@ class RealisticSea:
         half[:, n // 2] = False
         self.half = half
         # a: waves travelling along +k, b: waves travelling along -k; E|.|^2 = S dk^2 / 2
-        xi = rng.standard_normal((4, n, n))
+        grid_rng, long_rng = rng.spawn(2)
+        xi = _nested_normals(grid_rng, n)
         unit_a = (xi[0] + 1j * xi[1]) / math.sqrt(2.0)  # circular Gaussian, E|.|^2 = 1
         unit_b = (xi[2] + 1j * xi[3]) / math.sqrt(2.0)
         self.a = np.where(half, np.sqrt(s * self.dk**2 / 2.0) * unit_a, 0)
@@ -345,7 +363,7 @@ class RealisticSea:
         self.omega = np.where(half, gravity_capillary_omega(self.k), 0.0)
         self.resolved_slope_variance = float(np.sum(np.where(half, self.k**2 * (s + s_neg), 0.0))
                                              * self.dk**2)
-        self._init_long_modes(rng, long_bands)
+        self._init_long_modes(long_rng, long_bands)
         self.subpixel_slope_variance = max(
             spectrum.slope_variance - self.resolved_slope_variance - self.long_slope_variance, 0.0)
 

@@ -224,4 +224,41 @@ def figure_error_distribution(predictions: dict, path: Path, *, title: str = "")
     ax.set_ylabel("test sequences")
     ax.legend(fontsize=8)
     ax.set_title(title or "Distribution of absolute errors (Fig. 6)")
+
+#: Scenes of :func:`figure_presets`: altitude (m), wind (m/s), sun zenith (deg).
+PRESET_SCENES = ((2.0, 3.0, 20.0), (6.0, 7.0, 35.0), (14.0, 10.0, 60.0))
+
+
+def figure_presets(path: Path | str, *, size: int = 192, seed: int = 7) -> Path:
+    """``paper`` frames beside ``realistic`` frames of the same scenes (README figure).
+
+    Each row is one scene (altitude, wind, sun zenith from :data:`PRESET_SCENES`), rendered by
+    both presets from the same scenario: clean and glinty frames of each.
+    """
+    from wavealt.scenario import Scenario, preset_config
+    from wavealt.simulate import generate_sequence
+
+    configs = {name: preset_config(name, size=size, frames=2) for name in ("paper", "realistic")}
+    cols = [("paper", "clean"), ("paper", "glinty"), ("realistic", "clean"), ("realistic", "glinty")]
+    fig, axes = plt.subplots(len(PRESET_SCENES), len(cols),
+                             figsize=(2.7 * len(cols), 2.8 * len(PRESET_SCENES)), squeeze=False)
+    for i, (alt, wind, zen) in enumerate(PRESET_SCENES):
+        data = {}
+        for name, cfg in configs.items():
+            scen = Scenario(altitude_m=alt, wind_speed_mps=wind, wind_dir_deg=30.0,
+                            sun_zenith_deg=zen, sun_azimuth_deg=200.0, glint_severity=1.0,
+                            fps=cfg.fps, focal_px=cfg.focal_px, frames=2, seed=seed + i,
+                            camera_speed_mps=1.0 if name == "realistic" else 0.0,
+                            camera_dir_deg=0.0)
+            data[name] = generate_sequence(scen, cfg)
+        for j, (name, cond) in enumerate(cols):
+            ax = axes[i, j]
+            ax.imshow(np.clip(getattr(data[name], cond)[0], 0, 1))
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(f"{name}: {cond}", fontsize=10)
+            if j == 0:
+                ax.set_ylabel(f"{alt:g} m, {wind:g} m/s,\nsun zenith {zen:g}°", fontsize=9)
+    fig.suptitle("Same scenes, paper preset (left) vs realistic preset (right)")
     return _save(fig, path)

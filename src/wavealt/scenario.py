@@ -18,6 +18,14 @@ from wavealt._checks import check_finite_number
 from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
 
 MIN_SIZE_PX = 32
+RENDERERS = ("paper", "realistic")
+#: Largest camera roll or pitch, degrees (the nadir approximation of wavealt.sensor).
+MAX_TILT_DEG = 20.0
+_REALISTIC_FIELDS = frozenset({
+    "renderer", "spectrum", "spreading", "spreading_s", "inverse_wave_age", "exposure_ev",
+    "roll_deg", "pitch_deg", "vignetting", "whitecaps", "full_well_e", "read_noise_e", "srgb",
+    "compression", "jpeg_quality", "h264_crf",
+})
 
 
 def derive_seed(seed: int, index: int) -> int:
@@ -96,6 +104,24 @@ class SimConfig:
     contrast: float = 0.10
     refractive_index: float = 1.34
     lobe_exponent: float = 80.0
+    # -- realistic renderer (wavealt.realistic_sim); ignored by the paper renderer.  Left out
+    # of to_dict() while at their defaults, so paper datasets keep their dataset.json bytes.
+    renderer: str = "paper"
+    spectrum: str = "elfouhaily"
+    spreading: str = "cos2s"
+    spreading_s: Range = (4.0, 4.0)
+    inverse_wave_age: Range = (0.84, 0.84)
+    exposure_ev: Range = (0.0, 0.0)
+    roll_deg: Range = (0.0, 0.0)
+    pitch_deg: Range = (0.0, 0.0)
+    vignetting: Range = (0.0, 0.0)
+    whitecaps: bool = False
+    full_well_e: float = 20000.0
+    read_noise_e: float = 5.0
+    srgb: bool = True
+    compression: str = "none"
+    jpeg_quality: int = 90
+    h264_crf: int = 23
 
     def __post_init__(self) -> None:
         if self.preset not in PRESETS:
@@ -136,12 +162,51 @@ class SimConfig:
                 check_finite_number(name, x, low=lo, high=hi, low_open=lo_open,
                                     high_open=(name == "sun_zenith_deg"))
 
+        self._check_realistic()
+
+    def _check_realistic(self) -> None:
+        from wavealt.ocean.realistic import SPECTRA, SPREADINGS
+        from wavealt.sensor import SensorModel
+
+        choices = {"renderer": RENDERERS, "spectrum": SPECTRA, "spreading": SPREADINGS}
+        for name, allowed in choices.items():
+            if getattr(self, name) not in allowed:
+                msg = f"{name} must be one of {', '.join(allowed)}; got {getattr(self, name)!r}"
+                raise ValueError(msg)
+        bounds = {
+            "spreading_s": (0.0, None),
+            "inverse_wave_age": (0.83, 5.0),
+            "exposure_ev": (-10.0, 10.0),
+            "roll_deg": (-MAX_TILT_DEG, MAX_TILT_DEG),
+            "pitch_deg": (-MAX_TILT_DEG, MAX_TILT_DEG),
+            "vignetting": (0.0, 1.0),
+        }
+        for name, (lo, hi) in bounds.items():
+            r = getattr(self, name)
+            if len(r) != 2 or r[0] > r[1]:
+                msg = f"{name} must be a range (low, high) with low <= high; got {r!r}"
+                raise ValueError(msg)
+            for x in r:
+                check_finite_number(name, x, low=lo, high=hi)
+        for name in ("whitecaps", "srgb"):
+            if not isinstance(getattr(self, name), bool):
+                msg = f"{name} must be true or false; got {getattr(self, name)!r}"
+                raise ValueError(msg)
+        if self.compression == "h264" and self.size % 2:
+            msg = f"compression 'h264' needs an even size; got size {self.size}"
+            raise ValueError(msg)
+        SensorModel(full_well_e=self.full_well_e, read_noise_e=self.read_noise_e, srgb=self.srgb,
+                    compression=self.compression, jpeg_quality=self.jpeg_quality,
+                    h264_crf=self.h264_crf)
+
     @property
     def focal_px(self) -> float:
         return focal_px_from_fov(self.size, self.fov_deg)
 
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
+        defaults = {f.name: f.default for f in dataclasses.fields(self)}
+        d = {k: v for k, v in d.items() if k not in _REALISTIC_FIELDS or v != defaults[k]}
         return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
     @classmethod
@@ -197,8 +262,28 @@ class SimConfig:
 #: Presets: overrides of the SimConfig defaults.  ``paper`` is the paper's dataset design
 #: (§3.1: altitudes 1–5 m, 224x224, 10 frames, 70/15/15 split with seed 42; 200 sequences so
 #: that the test split holds 30, as in Table 2).
+#: ``realistic`` (issue #6): the physical sea, sky, glitter and camera of
+#: :mod:`wavealt.realistic_sim`, over calm to fresh seas (Beaufort 1-5), high to low sun,
+#: altitudes up to 15 m, a moving and slightly tilted camera, JPEG-compressed sRGB frames.
 PRESETS: dict[str, dict[str, Any]] = {
     "paper": {},
+    "realistic": {
+        "renderer": "realistic",
+        "domain_pad": 1.25,
+        "altitude_m": (1.0, 15.0),
+        "wind_speed_mps": (1.5, 10.5),
+        "sun_zenith_deg": (5.0, 75.0),
+        "glint_severity": (0.6, 1.0),
+        "camera_speed_mps": (0.0, 3.0),
+        "spreading_s": (1.0, 10.0),
+        "inverse_wave_age": (0.84, 2.0),
+        "exposure_ev": (-0.5, 0.5),
+        "roll_deg": (-3.0, 3.0),
+        "pitch_deg": (-3.0, 3.0),
+        "vignetting": (0.0, 0.5),
+        "whitecaps": True,
+        "compression": "jpeg",
+    },
 }
 
 

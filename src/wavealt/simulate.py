@@ -62,6 +62,10 @@ def make_surface(scenario: Scenario, size: int, pad: float) -> OceanSurface:
 def generate_sequence(scenario: Scenario, config: SimConfig, *,
                       with_height: bool = False) -> SequenceData:
     """Synthesise and render the paired clean/glinty frames of ``scenario``."""
+    if config.renderer == "realistic":
+        from wavealt.realistic_sim import generate_realistic_sequence
+
+        return generate_realistic_sequence(scenario, config, with_height=with_height)
     size = int(config.size)
     surf = make_surface(scenario, size, config.domain_pad)
     times = np.arange(scenario.frames) / scenario.fps

@@ -181,6 +181,7 @@ def deglint_figures(dataset: Path | str, out: Path | str, *, sequence_id: str | 
                            title=f"{sequence_id}: pixel trace, w = {window} (paper Fig. 7)"),
     ]
 
+
 def _condition_label(c: str) -> str:
     return {"clean": "Clean", "glinty": "Glinty", "residual": "Residual (TMF)"}.get(c, c)
 
@@ -224,6 +225,8 @@ def figure_error_distribution(predictions: dict, path: Path, *, title: str = "")
     ax.set_ylabel("test sequences")
     ax.legend(fontsize=8)
     ax.set_title(title or "Distribution of absolute errors (Fig. 6)")
+    return _save(fig, path)
+
 
 #: Scenes of :func:`figure_presets`: altitude (m), wind (m/s), sun zenith (deg).
 PRESET_SCENES = ((2.0, 3.0, 20.0), (6.0, 7.0, 35.0), (14.0, 10.0, 60.0))

@@ -472,5 +472,89 @@ def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
     return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px)
 
 
-__all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
+def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int = 10,
+                    step: int | None = None, out: Any = None, progress: bool = False,
+                    **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Estimates on sliding windows of ``frames`` and a summary of them.
+
+    A sequence of at most ``window`` frames gives one estimate.  The summary holds the
+    quality-weighted median altitude of the windows (its spread as ``altitude_std_m``),
+    the median velocity, the total ``frames``, the mean ``quality`` and the ``windows``.
+    With ``out`` (a folder), writes ``altitude.csv``, ``altitude.json`` and
+    ``altitude.png`` (altitude over time).
+    """
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from wavealt.video import sliding_windows
+
+    arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    est = DispersionAltimeter(**kw)
+    rows: list[dict[str, Any]] = []
+    ranges = list(sliding_windows(arr.shape[0], window=window, step=step))
+    for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
+        res = est.estimate(arr[start:stop], fps=fps, focal_px=focal_px)
+        row = {"start_frame": start, "stop_frame": stop,
+               "time_s": 0.5 * (start + stop - 1) / fps, **res.to_dict()}
+        rows.append(row)
+    alts = np.array([r["altitude_m"] for r in rows])
+    q = np.array([r["quality"] for r in rows])
+    if len(rows) == 1:
+        summary = dict(rows[0])
+    else:
+        wq = q + 1e-9
+        order = np.argsort(alts)
+        cw = np.cumsum(wq[order])
+        med = float(alts[order][np.searchsorted(cw, 0.5 * cw[-1])])
+        spread = float(1.4826 * np.median(np.abs(alts - med)))
+        stds = np.array([r["altitude_std_m"] for r in rows])
+        vel = np.median(np.array([r["velocity_mps"] for r in rows]), axis=0)
+        summary = {"altitude_m": med,
+                   "altitude_std_m": float(max(spread, np.median(stds) / math.sqrt(len(rows)))),
+                   "velocity_mps": [float(vel[0]), float(vel[1])],
+                   "quality": float(q.mean()), "frames": int(arr.shape[0]),
+                   "n_modes": int(np.median([r["n_modes"] for r in rows]))}
+    summary["windows"] = len(rows)
+    if out is not None:
+        _write_series(Path(out), summary, rows)
+    return summary, rows
+
+
+def _write_series(out: Any, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
+    import json
+
+    from wavealt.dataset import atomic_write_text
+
+    out.mkdir(parents=True, exist_ok=True)
+    cols = ["start_frame", "stop_frame", "time_s", "altitude_m", "altitude_std_m", "vx_mps",
+            "vy_mps", "quality", "frames", "n_modes"]
+    lines = [",".join(cols)]
+    for r in rows:
+        vals = {**r, "vx_mps": r["velocity_mps"][0], "vy_mps": r["velocity_mps"][1]}
+        lines.append(",".join(f"{vals[c]:.6g}" if isinstance(vals[c], float) else str(vals[c])
+                              for c in cols))
+    atomic_write_text(out / "altitude.csv", "\n".join(lines) + "\n")
+    atomic_write_text(out / "altitude.json",
+                      json.dumps({"summary": summary, "windows": rows}, indent=2) + "\n")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = [r["time_s"] for r in rows]
+    a = np.array([r["altitude_m"] for r in rows])
+    sd = np.array([r["altitude_std_m"] for r in rows])
+    fig, ax = plt.subplots(figsize=(6, 3.2))
+    ax.fill_between(t, a - sd, a + sd, alpha=0.3, label="±1 std")
+    ax.plot(t, a, "o-", ms=3, label="altitude")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("altitude (m)")
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(out / "altitude.png", dpi=120)
+    plt.close(fig)
+
+
+__all__ = ["altitude_series", "DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
            "estimate_altitude"]

@@ -459,7 +459,7 @@ class DispersionAltimeter:
         q = share_e * min(1.0, n_in / 40.0) / (1.0 + (rel / 0.05) ** 2)
         q = float(np.clip(q * min(1.0, 2.0 * share_w), 0.0, 1.0))
         # floor on the uncertainty: an untrusted fit must not look precise
-        sd_logh = max(sd_logh, 0.0) + (1.0 - q) ** 4 * 1.0
+        sd_logh = max(sd_logh, 0.0) + 3.0 * (1.0 - q) ** 3
         u = fit["u"]
         vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
         return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),

@@ -208,6 +208,49 @@ def reproduce(out: Path, scale: str) -> None:
         click.echo(f"report: {p}")
 
 
+@cli.command()
+@click.argument("input_path", metavar="INPUT", type=click.Path(path_type=Path))
+@click.option("--fps", type=float, required=True, help="Frame rate of INPUT, frames/s.")
+@click.option("--focal-px", type=float, default=None, help="Focal length in pixels.")
+@click.option("--fov-deg", type=float, default=None, help="Horizontal field of view, degrees.")
+@click.option("--window", type=int, default=10, show_default=True,
+              help="Frames per estimate; longer inputs are cut into sliding windows.")
+@click.option("--step", type=int, default=None, help="Frames between windows [window/2].")
+@click.option("--dispersion", type=click.Choice(["gravity-capillary", "gravity"]),
+              default="gravity-capillary", show_default=True,
+              help="Dispersion relation (gravity: the paper simulator's waves).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--out", type=click.Path(path_type=Path), default=None,
+              help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
+def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: float | None,
+             window: int, step: int | None, dispersion: str, as_json: bool,
+             out: Path | None) -> None:
+    """Altitude from a folder of frames or a video file, by the wave dispersion relation."""
+    import json
+
+    from wavealt.altimetry.dispersion import altitude_series
+    from wavealt.camera import focal_px_from_fov
+    from wavealt.video import read_input
+
+    if (focal_px is None) == (fov_deg is None):
+        msg = "give exactly one of --focal-px and --fov-deg"
+        raise ValueError(msg)
+    frames = read_input(input_path)
+    if focal_px is None:
+        focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
+    summary, rows = altitude_series(frames, fps=fps, focal_px=focal_px, window=window,
+                                    step=step, dispersion=dispersion, out=out)
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    vx, vy = summary["velocity_mps"]
+    click.echo(f"altitude: {summary['altitude_m']:.3f} +/- {summary['altitude_std_m']:.3f} m  "
+               f"(quality {summary['quality']:.2f}, {summary['frames']} frames, "
+               f"{len(rows)} window(s), water velocity ({vx:.2f}, {vy:.2f}) m/s)")
+    if out is not None:
+        click.echo(f"written: {out}")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI, turning library errors into one line and exit code 2."""
     try:

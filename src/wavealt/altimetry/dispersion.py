@@ -1,0 +1,560 @@
+"""Physics-based altimeter: fit the wave dispersion relation to a short frame sequence.
+
+A nadir pinhole camera at ``altitude_m`` images a sea wave of physical wavenumber ``k``
+(rad/m) at pixel wavenumber ``kappa = k * altitude_m / focal_px`` (rad/px).  Deep-water
+waves obey ``omega^2 = g k + (sigma/rho) k^3`` (Lamb 1932, §266; the capillary term matters
+only below a few centimetres), and water moving at ``w`` relative to the camera Doppler
+shifts every mode, so the phase of mode ``kappa`` advances per frame by
+
+    psi(kappa) = ( s * omega(|kappa| focal_px / altitude_m) + kappa . u ) / fps,    (1)
+
+with ``s = +1`` for a wave travelling along ``+kappa`` and ``-1`` against it, and
+``u = w focal_px / altitude_m`` the water's image velocity in px/s.  In the gravity regime
+``omega = a sqrt(|kappa|)`` with ``a^2 = g focal_px / altitude_m`` (Spencer, Shah & Guha,
+IEEE TIP 2006, recovered image scale this way).
+
+The estimator measures ``psi`` for every spatial mode from the cross-spectrum of the
+spatial FFTs of consecutive frames, summed over frame pairs (robust where a 3-D FFT over
+10 frames has far too coarse a frequency resolution), weights each mode by the phase
+precision its coherence implies, and fits ``altitude_m`` and ``u`` robustly:
+
+1. a search over the image velocity on low-wavenumber modes (where nothing wraps), the
+   altitude and each mode's direction ``s`` solved in closed form for each candidate;
+2. Gauss–Newton with Tukey weights on ``(log altitude, u)``, adding higher wavenumbers
+   band by band and unwrapping their phases against the current model.
+
+Harmonics of the non-linear rendering (``2k`` at ``2 omega``, off the shell by sqrt(2)),
+difference-frequency energy and glint are outliers to that fit; glint is first clipped
+(per-pixel spikes far above the sequence's robust spread).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import scipy.fft
+
+from wavealt._checks import check_finite_number, check_frames
+from wavealt.ocean.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
+
+DISPERSIONS = ("gravity", "gravity-capillary")
+DEGLINTS = ("none", "clip", "median")
+TILES = ("quadrants", "full")
+MIN_FRAMES = 3
+
+
+@dataclass
+class DispersionResult:
+    """The outcome of one dispersion fit.
+
+    Attributes
+    ----------
+    altitude_m : float
+        Estimated camera altitude above the mean sea surface, metres.
+    altitude_std_m : float
+        One-sigma uncertainty of ``altitude_m``, metres (large when the fit is poor).
+    velocity_mps : tuple of float
+        ``(vx, vy)``: velocity of the water relative to the camera along image +x (columns)
+        and +y (rows), m/s.  A camera moving at ``v`` over still water sees ``-v``.
+    quality : float
+        In [0, 1]: share of the coherent spectral weight the fit explains, discounted for
+        few modes and large relative uncertainty.  Below ~0.3, do not trust the estimate.
+    frames : int
+        Number of frames used.
+    n_modes : int
+        Number of spatial modes the final fit kept as inliers.
+    """
+
+    altitude_m: float
+    altitude_std_m: float
+    velocity_mps: tuple[float, float]
+    quality: float
+    frames: int
+    n_modes: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able dict (floats, ints, a two-item list for the velocity)."""
+        d = asdict(self)
+        d["velocity_mps"] = [float(v) for v in self.velocity_mps]
+        for key in ("altitude_m", "altitude_std_m", "quality"):
+            d[key] = float(d[key])
+        return d
+
+
+def _wrap(phase: np.ndarray) -> np.ndarray:
+    """Wrap angles to ``(-pi, pi]``."""
+    return np.angle(np.exp(1j * phase))
+
+
+def _to_gray(frames: np.ndarray) -> np.ndarray:
+    """``(T, H, W[, 3])`` float or uint8 -> ``(T, H, W)`` float32 luminance-like mean."""
+    x = frames.astype(np.float32)
+    if frames.dtype == np.uint8:
+        x /= 255.0
+    if x.ndim == 4:
+        x = x.mean(axis=-1)
+    return x
+
+
+def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) -> np.ndarray:
+    """Suppress glint spikes in ``(T, H, W)`` gray frames before the spectral analysis.
+
+    ``"clip"`` limits every pixel to ``median + clip_sigma * 1.4826 * MAD`` of the whole
+    sequence (glint is sparse, bright and one-sided; the wave texture is not).  ``"median"``
+    replaces each pixel by ``min(value, temporal median + clip_sigma * MAD)`` per pixel.
+    ``"none"`` returns the input.  Both are invariant to a brightness gain and offset.
+    """
+    if method not in DEGLINTS:
+        msg = f"deglint must be one of {', '.join(DEGLINTS)}; got {method!r}"
+        raise ValueError(msg)
+    if method == "none":
+        return gray
+    if method == "clip":
+        med = float(np.median(gray))
+        mad = float(np.median(np.abs(gray - med))) * 1.4826
+        return np.minimum(gray, med + clip_sigma * mad)
+    med_t = np.median(gray, axis=0, keepdims=True)
+    mad = float(np.median(np.abs(gray - med_t))) * 1.4826
+    return np.minimum(gray, med_t + clip_sigma * mad)
+
+
+class DispersionAltimeter:
+    """Altitude, its uncertainty and the water's velocity from frames, by wave dispersion.
+
+    Parameters
+    ----------
+    dispersion : {"gravity-capillary", "gravity"}
+        Dispersion relation of the water.  ``"gravity-capillary"``
+        (``omega^2 = g k + (sigma/rho) k^3``) is the physics of real water; the ``paper``
+        simulator preset moves its waves with ``omega = sqrt(g k)``, so evaluate it with
+        ``"gravity"`` (at 1 m the capillary term is several times ``g k`` at the Nyquist
+        wavenumber).
+    deglint : {"clip", "median", "none"}
+        Glint suppression before the analysis (:func:`deglint`).
+    clip_sigma : float
+        Threshold of the deglint, in robust standard deviations.
+    max_modes : int
+        Most spatial modes entering the fit (the most coherent-energy ones).
+    min_kappa_bins : float
+        Lowest radial wavenumber used, in FFT bins (lower ones carry the window's leakage
+        and the illumination's slow gradients).
+    max_kappa_frac : float
+        Highest radial wavenumber used, as a fraction of the Nyquist wavenumber pi rad/px.
+    max_shift_px : float
+        Largest water image speed searched, pixels per frame.
+    altitude_range_m : tuple of float
+        Altitudes the fit may return, metres.
+    tiles : {"quadrants", "full"}
+        Spectral analysis on the four image quadrants (summed cross-spectra), or on the
+        whole frame.  Quadrants avoid the bias of the view-tilt modulation of real optics.
+    """
+
+    def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
+                 clip_sigma: float = 3.0, max_modes: int = 4000, min_kappa_bins: float = 2.5,
+                 max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
+                 altitude_range_m: tuple[float, float] = (0.2, 60.0),
+                 tiles: str = "full") -> None:
+        if tiles not in TILES:
+            msg = f"tiles must be one of {', '.join(TILES)}; got {tiles!r}"
+            raise ValueError(msg)
+        self.tiles = tiles
+        if dispersion not in DISPERSIONS:
+            msg = f"dispersion must be one of {', '.join(DISPERSIONS)}; got {dispersion!r}"
+            raise ValueError(msg)
+        if deglint not in DEGLINTS:
+            msg = f"deglint must be one of {', '.join(DEGLINTS)}; got {deglint!r}"
+            raise ValueError(msg)
+        self.dispersion = dispersion
+        self.deglint = deglint
+        self.clip_sigma = check_finite_number("clip_sigma", clip_sigma, low=0.0, low_open=True)
+        if int(max_modes) != max_modes or max_modes < 8:
+            msg = f"max_modes must be an integer >= 8; got {max_modes!r}"
+            raise ValueError(msg)
+        self.max_modes = int(max_modes)
+        self.min_kappa_bins = check_finite_number("min_kappa_bins", min_kappa_bins, low=1.0)
+        self.max_kappa_frac = check_finite_number("max_kappa_frac", max_kappa_frac, low=0.0,
+                                                  high=1.0, low_open=True)
+        self.max_shift_px = check_finite_number("max_shift_px", max_shift_px, low=0.0)
+        lo, hi = altitude_range_m
+        check_finite_number("altitude_range_m[0]", lo, low=0.0, low_open=True)
+        check_finite_number("altitude_range_m[1]", hi, low=lo, low_open=True)
+        self.altitude_range_m = (float(lo), float(hi))
+
+    # -- physics ---------------------------------------------------------------------------
+    def omega(self, k: np.ndarray) -> np.ndarray:
+        """Angular frequency (rad/s) of physical wavenumber ``k`` (rad/m), deep water."""
+        if self.dispersion == "gravity":
+            return np.sqrt(GRAVITY_MPS2 * k)
+        return np.sqrt(GRAVITY_MPS2 * k + SURFACE_TENSION_OVER_DENSITY * k**3)
+
+    def _omega_and_dlog(self, kappa: np.ndarray, focal_px: float,
+                        altitude_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """``omega`` and ``d omega / d log(altitude)`` at pixel wavenumbers ``kappa``."""
+        k = kappa * focal_px / altitude_m
+        w = self.omega(k)
+        if self.dispersion == "gravity":
+            return w, -0.5 * w
+        # d omega/dk = (g + 3 T k^2) / (2 omega);  dk/dlog h = -k
+        return w, -k * (GRAVITY_MPS2 + 3.0 * SURFACE_TENSION_OVER_DENSITY * k**2) / (2.0 * w)
+
+    # -- spectra ---------------------------------------------------------------------------
+    def _modes(self, gray: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-mode phase step, weight and wavenumber from the frame cross-spectra."""
+        t, h0, w0 = gray.shape
+        if self.tiles == "quadrants":
+            # Near nadir the Fresnel reflectance is quadratic in slope (harmonics) and its
+            # linear part is the slope times the view tilt, which changes sign across the
+            # image centre; an odd modulation smears each mode over its neighbours (biasing
+            # toward the stronger, slower low wavenumbers).  Quadrant tiles see one sign.
+            h, w = h0 // 2, w0 // 2
+            parts = [gray[:, :h, :w], gray[:, :h, w0 - w:], gray[:, h0 - h:, :w],
+                     gray[:, h0 - h:, w0 - w:]]
+        else:
+            h, w = h0, w0
+            parts = [gray]
+        win = (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+        cross = np.zeros((h, w // 2 + 1), dtype=np.complex128)
+        amp = np.zeros((h, w // 2 + 1))
+        for part in parts:
+            x = part - part.mean(axis=(1, 2), keepdims=True)
+            f = scipy.fft.rfft2(x * win, axes=(1, 2), workers=1)
+            cross += np.sum(f[1:] * np.conj(f[:-1]), axis=0)
+            amp += np.sum(np.abs(f[1:]) * np.abs(f[:-1]), axis=0)
+        ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
+        kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]
+        ky, kx = np.broadcast_arrays(ky, kx)
+        kappa = np.hypot(kx, ky)
+        bin_kappa = 2.0 * np.pi / max(h, w)
+        valid = ((kappa >= self.min_kappa_bins * bin_kappa)
+                 & (kappa <= self.max_kappa_frac * np.pi)
+                 # the kx = 0 column holds +ky and -ky twice; keep ky > 0 only
+                 & ~((kx == 0) & (ky < 0)))
+        mag = np.abs(cross)
+        coh = np.where(amp > 0, mag / np.maximum(amp, 1e-30), 0.0)
+        idx = np.flatnonzero(valid.ravel())
+        # keep every low mode (the velocity search starts there) and, above, the modes of
+        # most coherent energy after whitening the steep ~kappa^-2 image spectrum
+        low = kappa.ravel()[idx] <= max(0.25, 6.0 * bin_kappa)
+        score = (coh.ravel()[idx] ** 2 * mag.ravel()[idx] * kappa.ravel()[idx] ** 2)
+        score[low] = np.inf
+        if idx.size > self.max_modes:
+            idx = idx[np.argpartition(-score, self.max_modes)[:self.max_modes]]
+        c = np.clip(coh.ravel()[idx], 0.0, 0.999)
+        pairs = t - 1
+        # phase variance of a coherence-c cross-spectrum over n pairs: (1-c^2)/(2 n c^2)
+        var = (1.0 - c**2) / (2.0 * pairs * np.maximum(c, 1e-3) ** 2)
+        return {
+            "psi": -np.angle(cross.ravel()[idx]),
+            "kx": kx.ravel()[idx].astype(np.float64),
+            "ky": ky.ravel()[idx].astype(np.float64),
+            "kappa": kappa.ravel()[idx].astype(np.float64),
+            "weight": 1.0 / (var + 1e-4),
+            "energy": mag.ravel()[idx].astype(np.float64),
+            "total_energy": np.array(float(mag[valid].sum())),
+            "bin_kappa": np.array(bin_kappa),
+            "shape": (h, w),
+        }
+
+    # -- fitting ---------------------------------------------------------------------------
+    @staticmethod
+    def _ring_cost(r: np.ndarray, ring: np.ndarray, wt: np.ndarray, n_rings: int) -> np.ndarray:
+        """Weighted spread of ``|r|`` within each wavenumber ring, summed; rows of ``r`` are
+        velocity candidates.  Eq. (1): after removing the Doppler term the wave phase step
+        ``|s omega / fps|`` depends on ``|kappa|`` alone."""
+        a = np.abs(r)
+        g = r.shape[0]
+        idx = (np.arange(g)[:, None] * n_rings + ring[None, :]).ravel()
+        wsum = np.bincount(ring, weights=wt, minlength=n_rings)
+        s1 = np.bincount(idx, weights=(a * wt[None, :]).ravel(), minlength=g * n_rings)
+        mean = s1.reshape(g, n_rings) / np.maximum(wsum, 1e-30)[None, :]
+        mr = np.take_along_axis(mean, np.broadcast_to(ring, r.shape), axis=1)
+        # relative spread: a velocity that freezes every wave (|r| ~ 0) is no better
+        rel = (a - mr) / (mr + 0.05)
+        return np.sum(wt[None, :] * np.minimum(rel**2, 1.0), axis=1)
+
+    def _velocity_candidates(self, m: dict[str, np.ndarray], n_best: int = 4) -> list[np.ndarray]:
+        """Image velocities of the water (px/frame) worth refining, found without the altitude.
+
+        Eq. (1): once the Doppler term ``kappa . u`` is removed, the phase step of every mode
+        on a wavenumber ring has the same magnitude ``omega(|kappa|) / fps``.  A grid over
+        ``u`` scores the relative spread of ``|r|`` within rings on the low modes; the best
+        few local minima are polished on wider bands, coarse to fine.
+        """
+        kappa, kx, ky, psi, w0 = m["kappa"], m["kx"], m["ky"], m["psi"], m["weight"]
+        dk = float(m["bin_kappa"])
+        ring_all = np.rint(kappa / dk).astype(np.int64)
+
+        def search(center: np.ndarray, band: float, half: float, step: float,
+                   keep: int) -> list[np.ndarray]:
+            sel = np.flatnonzero(kappa <= band)
+            if sel.size > 160:
+                sel = sel[np.argsort(-w0[sel] * m["energy"][sel])[:160]]
+            n = max(2, int(math.ceil(half / step)))
+            g = np.arange(-n, n + 1) * step
+            gx, gy = np.meshgrid(center[0] + g, center[1] + g, indexing="ij")
+            ring = ring_all[sel] - ring_all[sel].min()
+            r = _wrap(psi[sel][None, :] - (gx.ravel()[:, None] * kx[sel][None, :]
+                                           + gy.ravel()[:, None] * ky[sel][None, :]))
+            cost = self._ring_cost(r, ring, w0[sel], int(ring.max()) + 1).reshape(gx.shape)
+            # local minima of the grid, best first
+            pad = np.pad(cost, 1, constant_values=np.inf)
+            nb = np.min(np.stack([pad[1 + dy:1 + dy + cost.shape[0], 1 + dx:1 + dx + cost.shape[1]]
+                                  for dy in (-1, 0, 1) for dx in (-1, 0, 1)
+                                  if dy or dx]), axis=0)
+            mins = np.flatnonzero((cost <= nb).ravel())
+            mins = mins[np.argsort(cost.ravel()[mins])][:keep]
+            return [np.array([gx.ravel()[i], gy.ravel()[i]]) for i in mins]
+
+        band0 = max(0.25, 6.0 * dk)
+        starts = search(np.zeros(2), band0, self.max_shift_px, 0.4, n_best)
+        out = []
+        for u in starts:
+            band, step = band0, 0.4
+            while band < 1.5:
+                band, half = band * 2.0, 2.0 * step
+                step = step / 2.0
+                u = search(u, band, half, step, 1)[0]
+            out.append(u)
+        return out
+
+    def _initial(self, m: dict[str, np.ndarray], fps: float, focal_px: float,
+                 u: np.ndarray) -> float | None:
+        """Altitude from each mode's Doppler-free phase step (gravity regime), weighted
+        median: ``altitude = g focal_px kappa / omega^2`` with ``omega = fps |r|``."""
+        kappa, kx, ky, psi, w0 = m["kappa"], m["kx"], m["ky"], m["psi"], m["weight"]
+        r = np.abs(_wrap(psi - (kx * u[0] + ky * u[1])))
+        ok = (r > 0.02) & (kappa <= 1.5)
+        if np.count_nonzero(ok) < 8:
+            return None
+        logh = np.log(GRAVITY_MPS2 * focal_px * kappa[ok] / (fps * r[ok]) ** 2)
+        # d log h = -2 d r / r: a larger phase step pins the altitude down better
+        wt = w0[ok] * r[ok] ** 2
+        order = np.argsort(logh)
+        cw = np.cumsum(wt[order])
+        med = float(logh[order][np.searchsorted(cw, 0.5 * cw[-1])])
+        lo, hi = self.altitude_range_m
+        return float(np.clip(math.exp(med), lo, hi))
+
+    def _refine(self, m: dict[str, np.ndarray], fps: float, focal_px: float, alt: float,
+                u: np.ndarray) -> dict[str, Any]:
+        """Gauss–Newton with Tukey weights on (log altitude, u), widening the band."""
+        kappa, kx, ky, psi, w0 = m["kappa"], m["kx"], m["ky"], m["psi"], m["weight"]
+        bands = []
+        kb = 1.0
+        while kb < np.pi:
+            bands.append(kb)
+            kb *= 1.5
+        bands.append(np.pi)
+        logh = math.log(alt)
+        lo, hi = (math.log(a) for a in self.altitude_range_m)
+        c_tukey = 0.6  # rad: beyond this a mode is an outlier (harmonic, glint, noise)
+        out: dict[str, Any] = {}
+        for kb in bands:
+            for _ in range(6):
+                h = math.exp(logh)
+                om, dom = self._omega_and_dlog(kappa, focal_px, h)
+                # keep modes whose own wave phase step does not wrap (unambiguous s)
+                use = (kappa <= kb) & (om / fps < 0.9 * np.pi)
+                if np.count_nonzero(use) < 6:
+                    break
+                dop = kx * u[0] + ky * u[1]
+                rp = _wrap(psi - (om / fps + dop))
+                rm = _wrap(psi - (-om / fps + dop))
+                s = np.where(np.abs(rp) <= np.abs(rm), 1.0, -1.0)
+                r = np.where(s > 0, rp, rm)
+                tw = np.where(np.abs(r) < c_tukey, (1.0 - (r / c_tukey) ** 2) ** 2, 0.0)
+                wt = (w0 * tw)[use]
+                if wt.sum() <= 0:
+                    break
+                jac = np.stack([s * dom / fps, kx, ky], axis=1)[use]
+                jw = jac * wt[:, None]
+                hess = jac.T @ jw + np.diag([1e-9, 1e-9, 1e-9])
+                step = np.linalg.solve(hess, jw.T @ r[use])
+                logh = float(np.clip(logh + step[0], lo, hi))
+                u = u + step[1:]
+                if abs(step[0]) < 1e-5 and np.max(np.abs(step[1:])) < 1e-4:
+                    break
+            out = {"logh": logh, "u": u.copy(), "use": use, "r": r, "tw": tw, "hess": hess,
+                   "s": s}
+        if out:
+            # arbiter between starts: robust misfit of every mode, wrapped or not
+            out["cost"] = float(np.sum(w0 * np.minimum(out["r"] ** 2, c_tukey**2)))
+        return out
+
+    # -- public ------------------------------------------------------------------------
+    def estimate(self, frames: Any, *, fps: float, focal_px: float) -> DispersionResult:
+        """Estimate altitude, its uncertainty and the water's velocity from ``frames``.
+
+        Parameters
+        ----------
+        frames : (T, H, W, 3) or (T, H, W) array
+            Frame sequence, float in [0, 1] or uint8, ``T >= 3``, evenly spaced in time.
+        fps : float
+            Frame rate, frames per second.
+        focal_px : float
+            Focal length in pixels (``(W / 2) / tan(fov_x / 2)``).
+
+        Returns
+        -------
+        DispersionResult
+        """
+        arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+        fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+        focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
+        t, h, w = arr.shape[:3]
+        if min(h, w) < 16:
+            msg = f"frames must be at least 16x16 px; got {h}x{w}"
+            raise ValueError(msg)
+        gray = _to_gray(arr)
+        if float(gray.std()) <= 1e-6:
+            msg = "frames hold no texture (flat, black or saturated); no waves to measure"
+            raise ValueError(msg)
+        gray = deglint(gray, method=self.deglint, clip_sigma=self.clip_sigma)
+        m = self._modes(gray)
+        if m["kappa"].size < 12 or float(m["total_energy"]) <= 0:
+            return self._failed(t)
+        fit: dict[str, Any] = {}
+        for u0 in self._velocity_candidates(m):
+            alt0 = self._initial(m, fps, focal_px, u0)
+            if alt0 is None:
+                continue
+            cand = self._refine(m, fps, focal_px, alt0, u0)
+            if cand and (not fit or cand["cost"] < fit["cost"]):
+                fit = cand
+        if not fit:
+            return self._failed(t)
+        return self._result(m, fit, t, fps, focal_px)
+
+    def _failed(self, frames: int) -> DispersionResult:
+        lo, hi = self.altitude_range_m
+        mid = math.sqrt(lo * hi)
+        return DispersionResult(altitude_m=mid, altitude_std_m=hi - lo, velocity_mps=(0.0, 0.0),
+                                quality=0.0, frames=int(frames), n_modes=0)
+
+    def _result(self, m: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
+                focal_px: float) -> DispersionResult:
+        use, r, tw = fit["use"], fit["r"], fit["tw"]
+        alt = math.exp(fit["logh"])
+        w0 = m["weight"]
+        inl = use & (tw > 0)
+        n_in = int(np.count_nonzero(inl))
+        if n_in < 6:
+            return self._failed(t)
+        # scale of the phase residuals relative to what the coherences predict
+        wn = (w0 * tw)[use]
+        chi2 = float(np.sum(wn * r[use] ** 2) / max(np.sum(tw[use] > 0) - 3, 1))
+        try:
+            cov = np.linalg.inv(fit["hess"]) * max(chi2, 1.0)
+            sd_logh = float(math.sqrt(max(cov[0, 0], 0.0)))
+        except np.linalg.LinAlgError:
+            sd_logh = 10.0
+        # energy share: how much of the coherent spectral energy follows the fitted shell
+        e = m["energy"]
+        share_e = float(np.sum((e * tw)[use]) / max(np.sum(e[use]), 1e-30))
+        share_w = float(np.sum((w0 * tw)[use]) / max(np.sum(w0[use]), 1e-30))
+        rel = sd_logh
+        q = share_e * min(1.0, n_in / 40.0) / (1.0 + (rel / 0.05) ** 2)
+        q = float(np.clip(q * min(1.0, 2.0 * share_w), 0.0, 1.0))
+        # floor on the uncertainty: an untrusted fit must not look precise
+        sd_logh = max(sd_logh, 0.0) + 3.0 * (1.0 - q) ** 3
+        u = fit["u"]
+        vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
+        return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
+                                velocity_mps=vel, quality=q, frames=int(t), n_modes=n_in)
+
+
+def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
+                      **kw: Any) -> DispersionResult:
+    """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=)``."""
+    return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px)
+
+
+def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int = 10,
+                    step: int | None = None, out: Any = None, progress: bool = False,
+                    **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Estimates on sliding windows of ``frames`` and a summary of them.
+
+    A sequence of at most ``window`` frames gives one estimate.  The summary holds the
+    quality-weighted median altitude of the windows (its spread as ``altitude_std_m``),
+    the median velocity, the total ``frames``, the mean ``quality`` and the ``windows``.
+    With ``out`` (a folder), writes ``altitude.csv``, ``altitude.json`` and
+    ``altitude.png`` (altitude over time).
+    """
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from wavealt.video import sliding_windows
+
+    arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    est = DispersionAltimeter(**kw)
+    rows: list[dict[str, Any]] = []
+    ranges = list(sliding_windows(arr.shape[0], window=window, step=step))
+    for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
+        res = est.estimate(arr[start:stop], fps=fps, focal_px=focal_px)
+        row = {"start_frame": start, "stop_frame": stop,
+               "time_s": 0.5 * (start + stop - 1) / fps, **res.to_dict()}
+        rows.append(row)
+    alts = np.array([r["altitude_m"] for r in rows])
+    q = np.array([r["quality"] for r in rows])
+    if len(rows) == 1:
+        summary = dict(rows[0])
+    else:
+        wq = q + 1e-9
+        order = np.argsort(alts)
+        cw = np.cumsum(wq[order])
+        med = float(alts[order][np.searchsorted(cw, 0.5 * cw[-1])])
+        spread = float(1.4826 * np.median(np.abs(alts - med)))
+        stds = np.array([r["altitude_std_m"] for r in rows])
+        vel = np.median(np.array([r["velocity_mps"] for r in rows]), axis=0)
+        summary = {"altitude_m": med,
+                   "altitude_std_m": float(max(spread, np.median(stds) / math.sqrt(len(rows)))),
+                   "velocity_mps": [float(vel[0]), float(vel[1])],
+                   "quality": float(q.mean()), "frames": int(arr.shape[0]),
+                   "n_modes": int(np.median([r["n_modes"] for r in rows]))}
+    summary["windows"] = len(rows)
+    if out is not None:
+        _write_series(Path(out), summary, rows)
+    return summary, rows
+
+
+def _write_series(out: Any, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
+    import json
+
+    from wavealt.dataset import atomic_write_text
+
+    out.mkdir(parents=True, exist_ok=True)
+    cols = ["start_frame", "stop_frame", "time_s", "altitude_m", "altitude_std_m", "vx_mps",
+            "vy_mps", "quality", "frames", "n_modes"]
+    lines = [",".join(cols)]
+    for r in rows:
+        vals = {**r, "vx_mps": r["velocity_mps"][0], "vy_mps": r["velocity_mps"][1]}
+        lines.append(",".join(f"{vals[c]:.6g}" if isinstance(vals[c], float) else str(vals[c])
+                              for c in cols))
+    atomic_write_text(out / "altitude.csv", "\n".join(lines) + "\n")
+    atomic_write_text(out / "altitude.json",
+                      json.dumps({"summary": summary, "windows": rows}, indent=2) + "\n")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = [r["time_s"] for r in rows]
+    a = np.array([r["altitude_m"] for r in rows])
+    sd = np.array([r["altitude_std_m"] for r in rows])
+    fig, ax = plt.subplots(figsize=(6, 3.2))
+    ax.fill_between(t, a - sd, a + sd, alpha=0.3, label="±1 std")
+    ax.plot(t, a, "o-", ms=3, label="altitude")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("altitude (m)")
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(out / "altitude.png", dpi=120)
+    plt.close(fig)
+
+
+__all__ = ["altitude_series", "DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
+           "estimate_altitude"]

@@ -1,0 +1,115 @@
+"""Dispersion altimeter: recovery on linear-optics sequences, invariances, honest failure."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from wavealt.altimetry.dispersion import (
+    DispersionAltimeter, DispersionResult, altitude_series, estimate_altitude,
+)
+from wavealt.scenario import preset_config
+from wavealt.simulate import generate_sequence
+
+
+def _linear_frames(h: float, wind: float, speed: float, direction: float, *, size: int = 64,
+                   seed: int = 1) -> tuple[np.ndarray, float, tuple[float, float]]:
+    """Frames linear in the surface slope (an idealised camera), in [0, 1]."""
+    cfg = preset_config("paper", size=size, altitude_m=(h, h), wind_speed_mps=(wind, wind),
+                        camera_speed_mps=(speed, speed), camera_dir_deg=(direction, direction))
+    sc = cfg.sample_scenario(seed)
+    data = generate_sequence(sc, cfg)
+    x = data.slope_x + 0.7 * data.slope_y
+    x = (x - x.min()) / (x.max() - x.min())
+    vx, vy = sc.camera_velocity_mps
+    return x.astype(np.float32), cfg.focal_px, (-vx, -vy)
+
+
+@pytest.mark.parametrize(("h", "wind", "speed", "direction"),
+                         [(1.5, 6.0, 0.0, 0.0), (4.0, 8.0, 0.5, 60.0), (10.0, 10.0, 1.0, 200.0)])
+def test_recovers_altitude_and_drift(h: float, wind: float, speed: float, direction: float) -> None:
+    frames, focal_px, water_v = _linear_frames(h, wind, speed, direction)
+    res = estimate_altitude(frames, fps=30.0, focal_px=focal_px, dispersion="gravity")
+    assert isinstance(res, DispersionResult)
+    assert abs(res.altitude_m - h) / h < 0.06
+    assert res.quality > 0.8
+    assert res.frames == 10 and res.n_modes > 20
+    # velocity of the water relative to the camera: minus the camera's
+    assert np.allclose(res.velocity_mps, water_v, atol=0.08 + 0.05 * speed)
+
+
+def test_gain_offset_invariance_and_gray_rgb() -> None:
+    frames, focal_px, _ = _linear_frames(3.0, 7.0, 0.3, 30.0)
+    est = DispersionAltimeter(dispersion="gravity")
+    a = est.estimate(frames, fps=30.0, focal_px=focal_px)
+    b = est.estimate(0.2 + 0.5 * frames, fps=30.0, focal_px=focal_px)
+    c = est.estimate(np.repeat(frames[..., None], 3, axis=-1), fps=30.0, focal_px=focal_px)
+    assert b.altitude_m == pytest.approx(a.altitude_m, rel=1e-3)
+    assert c.altitude_m == pytest.approx(a.altitude_m, rel=1e-6)
+
+
+def test_uint8_and_non_contiguous_input() -> None:
+    frames, focal_px, _ = _linear_frames(2.0, 6.0, 0.0, 0.0)
+    u8 = np.round(frames * 255).astype(np.uint8)
+    a = estimate_altitude(u8, fps=30.0, focal_px=focal_px, dispersion="gravity")
+    b = estimate_altitude(np.asfortranarray(frames)[:, ::1, ::1], fps=30.0, focal_px=focal_px,
+                          dispersion="gravity")
+    assert abs(a.altitude_m - 2.0) / 2.0 < 0.08
+    assert abs(b.altitude_m - 2.0) / 2.0 < 0.08
+
+
+def test_to_dict_is_json() -> None:
+    frames, focal_px, _ = _linear_frames(2.0, 6.0, 0.0, 0.0)
+    d = estimate_altitude(frames, fps=30.0, focal_px=focal_px).to_dict()
+    back = json.loads(json.dumps(d))
+    assert set(back) >= {"altitude_m", "altitude_std_m", "velocity_mps", "quality", "frames",
+                         "n_modes"}
+    assert len(back["velocity_mps"]) == 2
+
+
+def test_noise_only_is_flagged() -> None:
+    rng = np.random.default_rng(0)
+    res = estimate_altitude(rng.random((10, 64, 64)).astype(np.float32), fps=30.0,
+                            focal_px=55.4)
+    assert res.quality < 0.3
+    assert res.altitude_std_m > 0.5 * res.altitude_m
+
+
+@pytest.mark.parametrize(("frames", "kw", "match"), [
+    (np.full((10, 64, 64, 3), 0.4, np.float32), {}, "no texture"),
+    (np.ones((10, 64, 64, 3), np.float32), {}, "no texture"),
+    (np.zeros((2, 64, 64, 3), np.float32), {}, "at least 3 frames"),
+    (np.zeros((10, 64, 64, 4), np.float32), {}, r"\(T, H, W, 3\)"),
+    (np.full((10, 64, 64), 2.0, np.float32), {}, r"in \[0, 1\]"),
+    (np.zeros((10, 8, 8), np.float32), {}, "at least 16x16"),
+    (np.random.default_rng(0).random((10, 32, 32)).astype(np.float32), {"fps": 0.0}, "fps"),
+    (np.random.default_rng(0).random((10, 32, 32)).astype(np.float32), {"focal_px": -1.0},
+     "focal_px"),
+])
+def test_bad_input_raises(frames: np.ndarray, kw: dict, match: str) -> None:
+    args = {"fps": 30.0, "focal_px": 50.0, **kw}
+    with pytest.raises(ValueError, match=match):
+        estimate_altitude(frames, **args)
+
+
+def test_bad_options_raise() -> None:
+    with pytest.raises(ValueError, match="dispersion"):
+        DispersionAltimeter(dispersion="shallow")
+    with pytest.raises(ValueError, match="deglint"):
+        DispersionAltimeter(deglint="magic")
+    with pytest.raises(ValueError, match="window"):
+        altitude_series(np.zeros((10, 32, 32), np.float32), fps=30.0, focal_px=50.0, window=2)
+
+
+def test_series_windows(tmp_path) -> None:
+    frames, focal_px, _ = _linear_frames(3.0, 7.0, 0.0, 0.0)
+    long = np.concatenate([frames, frames[::-1]])  # 20 frames: 3 windows of 10, step 5
+    summary, rows = altitude_series(long, fps=30.0, focal_px=focal_px, window=10,
+                                    dispersion="gravity", out=tmp_path)
+    assert [(r["start_frame"], r["stop_frame"]) for r in rows] == [(0, 10), (5, 15), (10, 20)]
+    assert summary["frames"] == 20 and summary["windows"] == 3
+    for name in ("altitude.csv", "altitude.json", "altitude.png"):
+        assert (tmp_path / name).is_file()
+    assert len((tmp_path / "altitude.csv").read_text().splitlines()) == 4

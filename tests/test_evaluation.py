@@ -17,7 +17,8 @@ from wavealt.evaluation import (METRIC_KEYS, ConstantEstimator, altitude_metrics
 def test_metrics_match_hand_computed_example() -> None:
     m = altitude_metrics([2.0, 3.0, 7.0], [1.0, 4.0, 4.0])  # errors +1, -1, +3
     assert m == {"n": 3, "mae_m": 5 / 3, "rmse_m": math.sqrt(11 / 3), "bias_m": 1.0,
-                 "max_abs_err_m": 3.0}
+                 "max_abs_err_m": 3.0,
+                 "rel_mae_pct": pytest.approx(100 * (1 / 1 + 1 / 4 + 3 / 4) / 3)}
     assert tuple(m) == METRIC_KEYS
 
 
@@ -76,3 +77,48 @@ def test_bad_input(tiny_dataset, tmp_path) -> None:
         evaluate(tiny_dataset, f"constant:{tmp_path}", progress=False)
     with pytest.raises(FileNotFoundError, match="no condition 'residual'"):
         evaluate(tiny_dataset, "constant", conditions=["residual"], progress=False)
+
+
+def test_incomplete_condition_is_skipped_and_refused(tiny_dataset, tmp_path) -> None:
+    import shutil
+
+    from wavealt.deglint import deglint_dataset
+
+    root = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, root)
+    ds = Dataset(root)
+    # an interrupted deglint: one sequence written, the condition flagged incomplete
+    first = ds.records[0].sequence_id
+    ds.write_frames("residual", first, ds.read_frames("glinty", first))
+    ds.register_condition("residual", "interrupted", complete=False, method="tmf", window=4)
+    ds = Dataset(root)
+    assert "residual" not in ds.conditions and not ds.is_complete("residual")
+    assert ds.is_complete("clean")
+    with pytest.raises(ValueError, match="condition 'residual' .* is incomplete"):
+        ds.read_frames("residual", first)
+    res = evaluate(root, "constant", out=tmp_path / "ev", progress=False, figures=False)
+    assert "residual" not in res.metrics and {"clean", "glinty"} <= set(res.metrics)
+    with pytest.raises(ValueError, match="is incomplete"):
+        evaluate(root, "constant", conditions=["clean", "residual"], progress=False)
+    # finishing the deglint run (resuming the written sequence) makes it usable
+    deglint_dataset(root, method="tmf", window=4, progress=False)
+    ds = Dataset(root)
+    assert "residual" in ds.conditions
+    assert "residual" in evaluate(root, "constant", progress=False, figures=False).metrics
+
+
+def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
+    from wavealt.evaluation import DispersionEstimator, dispersion_of
+    from wavealt.scenario import preset_config
+
+    assert dispersion_of(preset_config("paper", sequences=6, size=64)) == "gravity"
+    assert dispersion_of(preset_config("realistic", sequences=6, size=64)) == "gravity-capillary"
+    assert dispersion_of(None) == "gravity-capillary"
+    est = parse_estimator("dispersion:gravity")
+    assert isinstance(est, DispersionEstimator) and est.altimeter.dispersion == "gravity"
+    est = parse_estimator("dispersion")
+    assert est.altimeter is None  # bound to the dataset's renderer when evaluated
+    res = evaluate(tiny_dataset, est, conditions=["clean"], progress=False, figures=False)
+    assert res.estimator == "dispersion (gravity)" and est.altimeter.dispersion == "gravity"
+    with pytest.raises(ValueError, match="unknown estimator 'dispersion:water'"):
+        parse_estimator("dispersion:water")

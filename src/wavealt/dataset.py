@@ -252,11 +252,23 @@ class Dataset:
 
     @property
     def conditions(self) -> list[str]:
-        """Condition folders described in dataset.json that exist on disk."""
-        return [c for c in self.info.get("conditions", {}) if (self.root / c).is_dir()]
+        """Complete condition folders: described in dataset.json, present on disk, and not
+        flagged ``"complete": false`` (a deglint run that was interrupted or is running)."""
+        return [c for c, e in self.info.get("conditions", {}).items()
+                if (self.root / c).is_dir() and self.is_complete(c)]
+
+    def is_complete(self, condition: str) -> bool:
+        """False when dataset.json flags ``condition`` as ``"complete": false``."""
+        entry = self.info.get("conditions", {}).get(condition)
+        return not (isinstance(entry, dict) and entry.get("complete", True) is False)
 
     def require_condition(self, condition: str) -> Path:
         folder = self.root / condition
+        if condition in self.info.get("conditions", {}) and not self.is_complete(condition):
+            method = self.info["conditions"][condition].get("method", condition)
+            msg = (f"condition {condition!r} of dataset {self.root} is incomplete (an interrupted "
+                   f"or running `wavealt deglint --method {method}`; run it again to finish)")
+            raise ValueError(msg)
         if condition not in self.conditions:
             have = ", ".join(self.conditions) or "none"
             hint = " (run `wavealt deglint` first)" if condition not in BASE_CONDITIONS else ""

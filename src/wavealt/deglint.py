@@ -734,7 +734,7 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
     """
     from tqdm import tqdm
 
-    from wavealt.dataset import Dataset, atomic_write_text
+    from wavealt.dataset import Dataset, atomic_write_text, read_frames_folder
 
     _check_method(method)
     _half_window(window)
@@ -767,7 +767,8 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
             if not have_clean:
                 continue
             glinty = None
-            out = ds.read_frames(cond, sid)
+            # the condition is flagged incomplete while this runs: read its folder directly
+            out = read_frames_folder(ds.sequence_dir(cond, sid))
         else:
             glinty = ds.read_frames("glinty", sid)
             out = _quantised(apply_method(glinty, method, window=window))

@@ -7,6 +7,9 @@ An *estimator* turns the frames of a test sequence into one altitude (m).  Spec 
 ``constant:RUN``  always the training-set mean altitude of RUN (the baseline to beat)
 ``constant``      always the mean altitude of the dataset's own train split
 ``dispersion``    the physics-based dispersion-relation altimeter (``wavealt.altimetry.dispersion``)
+                  with the dispersion relation of the dataset's renderer (``gravity`` for the
+                  ``paper`` renderer, ``gravity-capillary`` for ``realistic``);
+                  ``dispersion:gravity`` / ``dispersion:gravity-capillary`` force one
 
 ``evaluate`` writes into its output folder:
 
@@ -32,7 +35,7 @@ from typing import Any, Protocol
 import numpy as np
 from tqdm.auto import tqdm
 
-METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m")
+METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m", "rel_mae_pct")
 
 #: The paper's Table 2 (ResNet-50 trained on clean, n = 30 test sequences each).
 PAPER_TABLE2: dict[str, dict[str, float]] = {
@@ -45,7 +48,8 @@ CONDITION_LABELS = {"clean": "Clean", "glinty": "Glinty", "residual": "Residual 
 
 
 def altitude_metrics(predicted_m: Sequence[float], true_m: Sequence[float]) -> dict[str, Any]:
-    """MAE, RMSE, bias (mean of predicted - true) and max absolute error, in metres.
+    """MAE, RMSE, bias (mean of predicted - true) and max absolute error, in metres, and the
+    relative MAE ``mean(|predicted - true| / true)`` in percent of the true altitude.
 
     Non-finite predictions (an estimator that gave up) are left out; ``n`` counts the rest.
 
@@ -66,10 +70,11 @@ def altitude_metrics(predicted_m: Sequence[float], true_m: Sequence[float]) -> d
     err = p[ok] - t[ok]
     if err.size == 0:
         return {"n": 0, "mae_m": math.nan, "rmse_m": math.nan, "bias_m": math.nan,
-                "max_abs_err_m": math.nan}
+                "max_abs_err_m": math.nan, "rel_mae_pct": math.nan}
     return {"n": int(err.size), "mae_m": float(np.mean(np.abs(err))),
             "rmse_m": float(np.sqrt(np.mean(err**2))), "bias_m": float(np.mean(err)),
-            "max_abs_err_m": float(np.max(np.abs(err)))}
+            "max_abs_err_m": float(np.max(np.abs(err))),
+            "rel_mae_pct": float(100.0 * np.mean(np.abs(err) / np.abs(t[ok])))}
 
 
 # -- estimators -------------------------------------------------------------------------
@@ -113,20 +118,54 @@ class CnnEstimator:
         return self.predictor.predict_sequence(frames)
 
 
+def dispersion_of(config: Any) -> str:
+    """The dispersion relation a dataset's waves obey: ``"gravity"`` or ``"gravity-capillary"``.
+
+    The ``paper`` renderer moves its waves with the deep-water relation ``omega = sqrt(g k)``
+    only (paper §3.1); the ``realistic`` renderer with ``omega^2 = g k + (sigma/rho) k^3``.
+
+    Parameters
+    ----------
+    config : SimConfig or None
+        The dataset's generator config; None (unknown data) gives the real-water relation.
+    """
+    if config is None:
+        return "gravity-capillary"
+    renderer = getattr(config, "renderer", "paper")
+    return "gravity" if renderer == "paper" else "gravity-capillary"
+
+
 class DispersionEstimator:
-    """Physics-based: fit of the wave dispersion relation (``wavealt.altimetry.dispersion``)."""
+    """Physics-based: fit of the wave dispersion relation (``wavealt.altimetry.dispersion``).
 
-    name = "dispersion"
+    Parameters
+    ----------
+    dispersion : {"gravity-capillary", "gravity"} or None
+        Dispersion relation; None picks the one of the dataset evaluated (:func:`dispersion_of`).
+    """
 
-    def __init__(self) -> None:
+    def __init__(self, *, dispersion: str | None = None) -> None:
         try:
             from wavealt.altimetry.dispersion import DispersionAltimeter
         except ImportError as exc:
             msg = f"estimator 'dispersion' is not available: {exc}"
             raise ValueError(msg) from None
-        self.altimeter = DispersionAltimeter()
+        self._cls = DispersionAltimeter
+        self.dispersion = dispersion
+        self.altimeter = None if dispersion is None else DispersionAltimeter(dispersion=dispersion)
+
+    @property
+    def name(self) -> str:
+        return "dispersion" if self.dispersion is None else f"dispersion ({self.dispersion})"
+
+    def bind(self, dataset: Any) -> None:
+        """Fix the dispersion relation to the one of ``dataset``'s renderer, if not given."""
+        if self.altimeter is None:
+            self.dispersion = dispersion_of(getattr(dataset, "config", None))
+            self.altimeter = self._cls(dispersion=self.dispersion)
 
     def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        self.bind(dataset)
         frames = dataset.read_frames(condition, record.sequence_id)
         try:
             res = self.altimeter.estimate(frames, fps=record.scenario.fps,
@@ -161,9 +200,10 @@ def parse_estimator(spec: str, dataset: Any = None) -> Estimator:
         return ConstantEstimator(float(info["stats"]["target_mean_m"]), source=str(arg))
     if kind == "constant" and dataset is not None:
         return ConstantEstimator(train_split_mean_m(dataset), source="dataset train split")
-    if kind == "dispersion" and not arg:
-        return DispersionEstimator()
-    msg = f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant or dispersion"
+    if kind == "dispersion" and arg in ("", "gravity", "gravity-capillary"):
+        return DispersionEstimator(dispersion=arg or None)
+    msg = (f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant, dispersion, "
+           "dispersion:gravity or dispersion:gravity-capillary")
     raise ValueError(msg)
 
 
@@ -209,6 +249,8 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
 
     ds = Dataset(dataset)
     est = parse_estimator(estimator, ds) if isinstance(estimator, str) else estimator
+    if isinstance(est, DispersionEstimator):
+        est.bind(ds)
     conds = list(conditions) if conditions else ds.conditions
     if not conds:
         msg = "conditions must name at least one condition"
@@ -262,9 +304,11 @@ def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
     return buf.getvalue()
 
 
-def _f(x: float, signed: bool = False) -> str:
+def _f(x: float, signed: bool = False, pct: bool = False) -> str:
     if x is None or not math.isfinite(x):
         return "—"
+    if pct:
+        return f"{x:.1f}"
     return f"{x:+.2f}" if signed else f"{x:.2f}"
 
 
@@ -274,18 +318,20 @@ def table_markdown(result: EvaluationResult) -> str:
     n = sorted({v["n"] for v in m.values()})
     lines = [f"Altitude estimation error by image condition — {result.estimator} "
              f"(n = {', '.join(map(str, n))} test sequences each)", "",
-             "| Condition | MAE (m) | RMSE (m) | Bias (m) | Max Err (m) |",
-             "|---|---:|---:|---:|---:|"]
+             "| Condition | MAE (m) | RMSE (m) | Bias (m) | Max Err (m) | Rel. MAE (%) |",
+             "|---|---:|---:|---:|---:|---:|"]
     for c, v in m.items():
         lines.append(f"| {CONDITION_LABELS.get(c, c)} | {_f(v['mae_m'])} | {_f(v['rmse_m'])} | "
-                     f"{_f(v['bias_m'], True)} | {_f(v['max_abs_err_m'])} |")
+                     f"{_f(v['bias_m'], True)} | {_f(v['max_abs_err_m'])} | "
+                     f"{_f(v.get('rel_mae_pct', math.nan), pct=True)} |")
     if "clean" in m and "glinty" in m:
         pen = m["glinty"]["mae_m"] - m["clean"]["mae_m"]
-        lines.append(f"| Glint penalty | {_f(pen, True)} m MAE from clean → glinty | | | |")
+        lines.append(f"| Glint penalty | {_f(pen, True)} m MAE from clean → glinty | | | | |")
     if result.baseline is not None:
         b = result.baseline
         lines.append(f"| Baseline: {result.baseline_label} | {_f(b['mae_m'])} | {_f(b['rmse_m'])} | "
-                     f"{_f(b['bias_m'], True)} | {_f(b['max_abs_err_m'])} |")
+                     f"{_f(b['bias_m'], True)} | {_f(b['max_abs_err_m'])} | "
+                     f"{_f(b.get('rel_mae_pct', math.nan), pct=True)} |")
     failed = {c: int(np.sum(~np.isfinite(d["pred_m"]))) for c, d in result.predictions.items()}
     if any(failed.values()):
         lines += ["", "Sequences without an estimate (left out of n): "
@@ -294,5 +340,6 @@ def table_markdown(result: EvaluationResult) -> str:
 
 
 __all__ = ["METRIC_KEYS", "PAPER_TABLE2", "CnnEstimator", "ConstantEstimator",
-           "DispersionEstimator", "EvaluationResult", "altitude_metrics", "evaluate",
+           "DispersionEstimator", "EvaluationResult", "altitude_metrics", "dispersion_of",
+           "evaluate",
            "parse_estimator", "predictions_csv", "table_markdown", "train_split_mean_m"]

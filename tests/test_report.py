@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 
 import pytest
 
@@ -45,3 +46,38 @@ def test_cli_train_and_evaluate(tiny_dataset, tmp_path, capsys) -> None:
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.startswith("wavealt: error: unknown estimator 'nope'") and err.count("\n") == 1
+
+
+def _ev(estimator: str, maes: dict[str, float], label: str = "") -> dict:
+    return {"estimator": estimator, "baseline_label": label,
+            "metrics": {c: {"n": 5, "mae_m": m, "rmse_m": m, "bias_m": -m / 2,
+                            "max_abs_err_m": 2 * m, "rel_mae_pct": 10 * m}
+                        for c, m in maes.items()}}
+
+
+def test_side_by_side_lists_every_method_and_condition_and_judges_the_baseline() -> None:
+    from wavealt.report import side_by_side_markdown
+
+    evals = {
+        "cnn-clean": _ev("cnn (resnet-small, trained on clean)",
+                         {"clean": 1.0, "glinty": 1.9, "residual": 3.0}),
+        "dispersion": _ev("dispersion (gravity)", {"clean": 0.1, "glinty": math.nan}),
+        "constant": _ev("constant", {"clean": 2.0, "glinty": 2.0, "residual": 2.0},
+                        label="constant 3.00 m (dataset train split)"),
+    }
+    evals["dispersion"]["metrics"]["glinty"]["n"] = 0
+    md = "\n".join(side_by_side_markdown(evals))
+    mae_table = md.split("### Relative MAE")[0]
+    rows = [r for r in mae_table.splitlines() if r.startswith("| ")]
+    assert rows[0] == "| Method | Clean | Glinty | Residual (TMF) |"
+    assert len(rows) == 1 + len(evals)
+    assert "| constant baseline (3.00 m (dataset train split)) | 2.00 [-1.00]" in md
+    assert "| dispersion (gravity) | 0.10 [-0.05] | — (n=0) | — |" in md
+    rel = md.split("### Relative MAE")[1].split("##")[0]
+    assert "| cnn (resnet-small, trained on clean) | 10.0 | 19.0 | 30.0 |" in rel
+    verdict = md.split("## What beats the constant baseline")[1]
+    # 10 % margin: 1.9 m against 2.0 m does not count
+    assert "cnn (resnet-small, trained on clean): **beats it on Clean (1.00 m)**; not on " \
+           "Glinty (1.90 m), Residual (TMF) (3.00 m)." in verdict
+    assert "dispersion (gravity): **beats it on Clean (0.10 m)**; no estimate on Glinty." in verdict
+    assert not any(line.startswith("- constant") for line in verdict.splitlines())

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-DEGLINT_METHODS = ("tmf", "tmf-min", "median", "percentile", "glint-mask")
+DEGLINT_METHODS = ("tmf", "tmf-min", "median", "percentile", "glint-mask", "achromatic")
 
 
 @dataclass(frozen=True)
@@ -54,13 +54,16 @@ class ReproduceScale:
 
 SCALES: dict[str, ReproduceScale] = {
     "quick": ReproduceScale(
-        name="quick", sequences=120, size=64, frames=10, model="resnet-small", epochs=8,
+        name="quick", sequences=120, size=64, frames=10, model="resnet-small", epochs=16,
         batch_size=32, lr=1e-3, frames_per_sequence=4,
-        train_conditions=("clean", "glinty", "residual"), temporal_conditions=("clean",),
-        note=("QUICK SCALE — not the paper's protocol: 120 sequences of 64x64 px, the small "
-              "registered ResNet (`resnet-small`, Bottleneck (1,1,1,1), width 16, 0.5 M "
-              "parameters) instead of ResNet-50, 8 epochs at lr 1e-3, 4 frames per sequence per "
-              "epoch. Run `wavealt reproduce OUT --scale paper` for the paper's protocol.")),
+        train_conditions=("clean", "glinty", "residual", "tmf-min"),
+        temporal_conditions=("clean", "glinty"),
+        note=("QUICK SCALE — not the paper's protocol: 120 sequences of 64x64 px (18 test "
+              "sequences), the small registered ResNet (`resnet-small`, Bottleneck (1,1,1,1), "
+              "width 16, 0.5 M parameters) instead of ResNet-50, 16 epochs at lr 1e-3, 4 frames "
+              "per sequence per epoch; CNNs trained on clean, glinty, residual and tmf-min only "
+              "(every deglint method is still tested). Run `wavealt reproduce OUT --scale paper` "
+              "for the paper's protocol.")),
     "paper": ReproduceScale(
         name="paper", sequences=200, size=224, frames=10, model="resnet50", epochs=30,
         batch_size=32, lr=1e-4, frames_per_sequence=0,
@@ -229,25 +232,9 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
 
 def _deglint_figures(ds_path: Path, fig_dir: Path, window: int) -> list[str]:
     """Fig. 4 (TMF decomposition) and Fig. 7 (pixel trace) of the first test sequence."""
-    import numpy as np
+    from wavealt.plots import deglint_figures
 
-    from wavealt.dataset import Dataset
-    from wavealt.plots import figure_pixel_trace, figure_tmf_decomposition
-
-    ds = Dataset(ds_path)
-    if "residual" not in ds.conditions:
-        msg = "no residual condition (the TMF deglint stage did not run)"
-        raise _Skip(msg)
-    rec = (ds.split("test") or ds.records)[0]
-    glinty = ds.read_frames("glinty", rec.sequence_id)
-    clean = ds.read_frames("clean", rec.sequence_id)
-    resid = ds.read_frames("residual", rec.sequence_id)
-    t = glinty.shape[0] // 2
-    # paper eq. (5)-(6): residual = I - G_hat, so the removed baseline is I - residual
-    removed = np.clip(glinty[t] - resid[t], 0.0, 1.0)
-    return [str(figure_tmf_decomposition(glinty[t], resid[t], removed, clean[t],
-                                         fig_dir / "fig4_tmf_decomposition.png")),
-            str(figure_pixel_trace(glinty, fig_dir / "fig7_pixel_trace.png", window=window))]
+    return [str(p) for p in deglint_figures(ds_path, fig_dir, window=window)]
 
 
 # -- the report -------------------------------------------------------------------------
@@ -287,77 +274,37 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
                     "predictions (the temporal CNN sees all frames at once, stacked as grayscale "
                     "channels). n counts sequences, as in the paper's Table 2.",
                     ""]
+    # run folders inside OUT are named relative to it (the report travels with OUT)
+    evals = {k: {**e, "baseline_label": str(e.get("baseline_label", "")).replace(f"{out}/", "")}
+             for k, e in evals.items()}
     main = evals.get("cnn-clean")
     L += ["## Table 2 — CNN trained on clean, tested per condition (ours vs the paper)", ""]
     if main:
         m = main["metrics"]
         n = sorted({v["n"] for v in m.values()})
         L += [f"Ours: n = {', '.join(map(str, n))} test sequences per condition; the paper: n = 30.",
-              "", "| Condition | MAE ours | MAE paper | RMSE ours | RMSE paper | Bias ours | Bias paper | Max ours | Max paper |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              "", "| Condition | MAE ours | MAE paper | RMSE ours | RMSE paper | Bias ours | Bias paper | Max ours | Max paper | Rel. MAE ours (%) |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for c in [c for c in ("clean", "glinty", "residual") if c in m] + \
                  [c for c in m if c not in ("clean", "glinty", "residual")]:
             v, p = m[c], PAPER_TABLE2.get(c, {})
             L.append(f"| {_label(c)} | {_f(v['mae_m'])} | {_f(p.get('mae_m'))} | {_f(v['rmse_m'])} | "
                      f"{_f(p.get('rmse_m'))} | {_f(v['bias_m'], True)} | {_f(p.get('bias_m'), True)} | "
-                     f"{_f(v['max_abs_err_m'])} | {_f(p.get('max_abs_err_m'))} |")
+                     f"{_f(v['max_abs_err_m'])} | {_f(p.get('max_abs_err_m'))} | "
+                     f"{_f(v.get('rel_mae_pct'))} |")
         if "clean" in m and "glinty" in m:
-            L.append(f"| Glint penalty | {_f(m['glinty']['mae_m'] - m['clean']['mae_m'], True)} | +0.67 | | | | | | |")
+            L.append(f"| Glint penalty | {_f(m['glinty']['mae_m'] - m['clean']['mae_m'], True)} | +0.67 | | | | | | | |")
         b = main["baseline"]
         L.append(f"| Constant baseline ({main['baseline_label']}) | {_f(b['mae_m'])} | — | {_f(b['rmse_m'])} | — | "
-                 f"{_f(b['bias_m'], True)} | — | {_f(b['max_abs_err_m'])} | — |")
+                 f"{_f(b['bias_m'], True)} | — | {_f(b['max_abs_err_m'])} | — | {_f(b.get('rel_mae_pct'))} |")
         L += ["", "![Fig. 5](eval/cnn-clean/fig5_predicted_vs_actual.png)", "",
               "![Fig. 6](eval/cnn-clean/fig6_error_distribution.png)", ""]
     else:
         L += ["(not available: the CNN trained on clean did not run; see the stage table)", ""]
 
     # every method side by side
-    conds: list[str] = []
-    for e in evals.values():
-        conds += [c for c in e["metrics"] if c not in conds]
-    L += ["## Every method × every test condition — MAE (m) [bias (m)]", "",
-          "Rows: CNN per training condition (beyond the paper: its conclusion proposes training on "
-          "deglinted images), the temporal CNN (frames stacked as channels), the physics-based "
-          "dispersion altimeter, and the constant baseline (training-set mean altitude).", "",
-          "| Method | " + " | ".join(_label(c) for c in conds) + " |",
-          "|---|" + "---:|" * len(conds)]
-    const_mae = None
-    if "constant" in evals:
-        const_mae = evals["constant"]["metrics"][conds[0]]["mae_m"] if conds else None
-    for name, e in evals.items():
-        cells = []
-        for c in conds:
-            v = e["metrics"].get(c)
-            cells.append("—" if v is None else f"{_f(v['mae_m'])} [{_f(v['bias_m'], True)}]"
-                         + ("" if v["n"] == e["metrics"][conds[0]]["n"] else f" n={v['n']}"))
-        L.append(f"| {e['estimator']} | " + " | ".join(cells) + " |")
-    skipped = {k: v["status"] for k, v in stages.items()
-               if isinstance(v, dict) and str(v.get("status", "")).startswith("skipped")}
-    if skipped:
-        L += ["", "Not run: " + "; ".join(f"`{k}` {v}" for k, v in skipped.items())]
-
-    # honesty: what beats the constant baseline
-    L += ["", "## What beats the constant baseline", ""]
-    if const_mae is None or not math.isfinite(const_mae):
-        L.append("The constant baseline was not evaluated.")
-    else:
-        beat, lose = [], []
-        for name, e in evals.items():
-            if name == "constant":
-                continue
-            for c, v in e["metrics"].items():
-                if not math.isfinite(v["mae_m"]):
-                    continue
-                item = f"{e['estimator']} on {_label(c)} ({_f(v['mae_m'])} m vs {_f(const_mae)} m)"
-                (beat if v["mae_m"] < 0.9 * const_mae else lose).append(item)
-        L.append(f"The constant baseline (always the training-set mean altitude) scores MAE "
-                 f"{_f(const_mae)} m on every condition. We count a method as beating it only "
-                 "when its MAE is at least 10 % lower.")
-        L += ["", f"**Beats it ({len(beat)}):** " + ("; ".join(beat) if beat else "nothing."), "",
-              f"**Does not beat it ({len(lose)}):** " + ("; ".join(lose) if lose else "nothing."),
-              "", "A test split this small (see n above) makes differences of a few tenths of a "
-              "metre noise; a model that does not beat the constant has not learnt altitude, "
-              "whatever its MAE looks like next to the paper's."]
+    L += side_by_side_markdown(evals, stages)
+    L += _deglint_quality_markdown(out / "dataset")
 
     # figures
     L += ["", "## Figures", ""]
@@ -404,6 +351,122 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
             L += [f"Run `{name}` (`runs/{name}/config.json`, abridged):", "", "```json",
                   json.dumps(show, indent=2), "```", ""]
     return "\n".join(L) + "\n"
+
+
+
+def _ordered_conditions(evals: dict[str, dict[str, Any]]) -> list[str]:
+    conds: list[str] = []
+    for e in evals.values():
+        conds += [c for c in e["metrics"] if c not in conds]
+    first = [c for c in ("clean", "glinty", "residual") if c in conds]
+    return first + [c for c in conds if c not in first]
+
+
+def _method_label(name: str, e: dict[str, Any]) -> str:
+    if name == "constant":
+        return f"constant baseline ({e['baseline_label'].removeprefix('constant ')})"
+    return str(e["estimator"])
+
+
+def side_by_side_markdown(evals: dict[str, dict[str, Any]],
+                          stages: dict[str, Any] | None = None) -> list[str]:
+    """Every evaluated method against every test condition (MAE, relative MAE) and the honest
+    verdict against the constant baseline, as markdown lines.
+
+    Parameters
+    ----------
+    evals : dict
+        ``name -> {"estimator", "metrics", "baseline", "baseline_label"}`` as ``reproduce``
+        records them; ``"constant"`` is the baseline.
+    stages : dict, optional
+        ``stages.json``; skipped stages are listed.
+    """
+    conds = _ordered_conditions(evals)
+    L = ["## Every method × every test condition", "",
+         "Rows: the CNN per training condition (beyond the paper: its conclusion proposes "
+         "training on deglinted images), the temporal CNN (all frames of a sequence stacked as "
+         "channels), the physics-based dispersion altimeter (no training; the dispersion "
+         "relation of the simulator's renderer) and the constant baseline (training-set mean "
+         "altitude). Columns: the test condition (`residual` is the paper's eq. (6) glint "
+         "estimate; `tmf-min`, `median`, `percentile`, `glint-mask`, `achromatic` are "
+         "deglinted frames, see the deglint table below).", ""]
+    for title, key, fmt in (("MAE (m) [bias (m)]", "mae_m", None),
+                            ("Relative MAE (% of the true altitude)", "rel_mae_pct", "pct")):
+        L += [f"### {title}", "",
+              "| Method | " + " | ".join(_label(c) for c in conds) + " |",
+              "|---|" + "---:|" * len(conds)]
+        for name, e in evals.items():
+            m = e["metrics"]
+            n0 = next(iter(m.values()))["n"] if m else 0
+            cells = []
+            for c in conds:
+                v = m.get(c)
+                if v is None:
+                    cells.append("—")
+                    continue
+                val = v.get(key, math.nan)
+                if not math.isfinite(val):
+                    cell = "—"
+                elif fmt is None:
+                    cell = f"{_f(val)} [{_f(v['bias_m'], True)}]"
+                else:
+                    cell = f"{val:.1f}"
+                if v["n"] != n0:
+                    cell += f" (n={v['n']})"
+                cells.append(cell)
+            L.append(f"| {_method_label(name, e)} | " + " | ".join(cells) + " |")
+        L.append("")
+    if stages:
+        skipped = {k: v["status"] for k, v in stages.items()
+                   if isinstance(v, dict) and str(v.get("status", "")).startswith("skipped")}
+        if skipped:
+            L += ["Not run: " + "; ".join(f"`{k}` {v}" for k, v in skipped.items()), ""]
+    L += ["## What beats the constant baseline", ""]
+    const = evals.get("constant")
+    if not const or not conds:
+        return L + ["The constant baseline was not evaluated.", ""]
+    cm = const["metrics"]
+    L.append("The constant baseline (always the training-set mean altitude) scores MAE "
+             + ", ".join(f"{_f(cm[c]['mae_m'])} m ({_f(cm[c]['rel_mae_pct'])} %) on {_label(c)}"
+                         for c in conds[:1] if c in cm)
+             + " (the same on every condition: it does not look at the frames). We count a "
+             "method as beating it on a condition only when its MAE there is at least 10 % lower.")
+    L.append("")
+    for name, e in evals.items():
+        if name == "constant":
+            continue
+        beat, lose, fail = [], [], []
+        for c in conds:
+            v, b = e["metrics"].get(c), cm.get(c)
+            if v is None or b is None:
+                continue
+            if not math.isfinite(v["mae_m"]) or v["n"] == 0:
+                fail.append(_label(c))
+            elif v["mae_m"] < 0.9 * b["mae_m"]:
+                beat.append(f"{_label(c)} ({_f(v['mae_m'])} m)")
+            else:
+                lose.append(f"{_label(c)} ({_f(v['mae_m'])} m)")
+        verdict = ("**beats it on " + ", ".join(beat) + "**") if beat else "**beats it nowhere**"
+        rest = f"; not on {', '.join(lose)}" if lose and beat else (
+            f" ({', '.join(lose)})" if lose else "")
+        gave_up = f"; no estimate on {', '.join(fail)}" if fail else ""
+        L.append(f"- {_method_label(name, e)}: {verdict}{rest}{gave_up}.")
+    L += ["", "A test split this small (see n above) makes differences of a few tenths of a "
+          "metre noise; a model that does not beat the constant has not learnt altitude, "
+          "whatever its MAE looks like next to the paper's.", ""]
+    return L
+
+
+def _deglint_quality_markdown(ds_path: Path) -> list[str]:
+    """The measured deglint quality table of the dataset (``deglint_table.md``), if any."""
+    table = ds_path / "deglint_table.md"
+    if not table.is_file():
+        return []
+    return ["## Deglint quality (every frame of the dataset vs `clean/`)", "",
+            "Written by `wavealt deglint` into `dataset/deglint_table.md`; `glinty` is the "
+            "untouched input. `residual` (the paper's eq. (6)) is the glint estimate, not a "
+            "clean-frame estimate, so its scores against clean are low by design.", "",
+            *table.read_text(encoding="utf-8").rstrip("\n").split("\n"), ""]
 
 
 _IMG = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
@@ -464,4 +527,5 @@ def markdown_to_html(md: str, *, base: Path) -> str:
             f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
 
-__all__ = ["SCALES", "ReproduceScale", "build_report_markdown", "markdown_to_html", "reproduce"]
+__all__ = ["SCALES", "ReproduceScale", "build_report_markdown", "markdown_to_html", "reproduce",
+           "side_by_side_markdown"]

@@ -2,7 +2,11 @@
 
 Each script prints one JSON object on stdout; this runner saves it as
 ``results/<name>.json`` and prints a one-line summary per benchmark.
-Run: ``python benchmarks/run_all.py [NAME ...]`` (names without ``bench_`` / ``.py``).
+Run: ``python benchmarks/run_all.py [--full] [NAME ...]`` (names without ``bench_`` / ``.py``).
+
+By default every script runs with the small settings of :data:`QUICK_ARGS` (each ends within
+about two minutes on one core); ``--full`` runs each with its own defaults (the sizes the
+issues ask for; minutes to tens of minutes each).
 """
 
 from __future__ import annotations
@@ -15,8 +19,19 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
+#: Small settings per benchmark for ``make bench``; the JSON records them as run.
+QUICK_ARGS: dict[str, list[str]] = {
+    "cnn": ["--batches", "1", "--batch-size", "8"],
+    "deglint": ["--frames-1080p", "10", "--frames-224", "100", "--repeat", "1"],
+    "dispersion": ["--quick"],
+    "realistic": ["--size", "128", "--sequences", "2"],
+    "simulate": ["--sequences", "4"],
+}
+
 
 def main(argv: list[str]) -> int:
+    full = "--full" in argv
+    argv = [a for a in argv if a != "--full"]
     scripts = sorted(HERE.glob("bench_*.py"))
     if argv:
         wanted = set(argv)
@@ -31,7 +46,9 @@ def main(argv: list[str]) -> int:
     for script in scripts:
         name = script.stem.removeprefix("bench_")
         t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
+        extra = [] if full else QUICK_ARGS.get(name, [])
+        proc = subprocess.run([sys.executable, str(script), *extra], capture_output=True,
+                              text=True)
         dt = time.perf_counter() - t0
         if proc.returncode != 0:
             failed += 1
@@ -43,6 +60,8 @@ def main(argv: list[str]) -> int:
             failed += 1
             print(f"{name}: printed no JSON", file=sys.stderr)
             continue
+        if isinstance(result, dict):
+            result.setdefault("run_all_args", extra)
         (out_dir / f"{name}.json").write_text(json.dumps(result, indent=2) + "\n")
         print(f"{name}: {dt:.0f} s -> {out_dir / (name + '.json')}")
     return 1 if failed else 0

@@ -156,19 +156,21 @@ def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
               help="Frames drawn per training sequence each epoch (0 = all).")
 @click.option("--temporal", is_flag=True, help="Temporal variant: the sequence's frames as channels.")
 @click.option("--workers", type=int, default=0, show_default=True, help="DataLoader workers.")
+@click.option("--threads", type=int, default=0, show_default=True,
+              help="torch threads (0 = every core; 1 is faster for small models on a busy machine).")
 @click.option("--pretrained", type=click.Path(path_type=Path), default=None,
               help="Local torchvision-style state dict to start from (nothing is downloaded).")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last epoch.")
 def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, batch_size: int,
           lr: float, seed: int, crop_px: int | None, frames_per_sequence: int, temporal: bool,
-          workers: int, pretrained: Path | None, resume: bool) -> None:
+          workers: int, threads: int, pretrained: Path | None, resume: bool) -> None:
     """Train the CNN altimeter on DATASET (paper Table 1)."""
     from wavealt.altimetry.train import TrainConfig
     from wavealt.altimetry.train import train as train_run
 
     cfg = TrainConfig(condition=condition, model=model, epochs=epochs, batch_size=batch_size,
                       lr=lr, seed=seed, crop_px=crop_px, frames_per_sequence=frames_per_sequence,
-                      temporal=temporal, num_workers=workers,
+                      temporal=temporal, num_workers=workers, threads=threads,
                       pretrained=str(pretrained) if pretrained else None)
     res = train_run(dataset, run, cfg, resume=resume)
     click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "

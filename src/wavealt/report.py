@@ -49,19 +49,21 @@ class ReproduceScale:
     temporal_conditions: tuple[str, ...]
     note: str
     deglint_methods: tuple[str, ...] = DEGLINT_METHODS
+    threads: int = 0  # torch threads (0 = every core)
     extra: dict[str, Any] = field(default_factory=dict)
 
 
 SCALES: dict[str, ReproduceScale] = {
     "quick": ReproduceScale(
         name="quick", sequences=120, size=64, frames=10, model="resnet-small", epochs=16,
-        batch_size=32, lr=1e-3, frames_per_sequence=4,
+        batch_size=32, lr=1e-3, frames_per_sequence=4, threads=1,
         train_conditions=("clean", "glinty", "residual", "tmf-min"),
         temporal_conditions=("clean", "glinty"),
         note=("QUICK SCALE — not the paper's protocol: 120 sequences of 64x64 px (18 test "
               "sequences), the small registered ResNet (`resnet-small`, Bottleneck (1,1,1,1), "
               "width 16, 0.5 M parameters) instead of ResNet-50, 16 epochs at lr 1e-3, 4 frames "
-              "per sequence per epoch; CNNs trained on clean, glinty, residual and tmf-min only "
+              "per sequence per epoch, one torch thread; CNNs trained on clean, glinty, residual "
+              "and tmf-min only "
               "(every deglint method is still tested). Run `wavealt reproduce OUT --scale paper` "
               "for the paper's protocol.")),
     "paper": ReproduceScale(
@@ -189,7 +191,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
             cfg = TrainConfig(condition=c, model=sc.model, epochs=sc.epochs,
                               batch_size=sc.batch_size, lr=sc.lr,
                               frames_per_sequence=0 if temporal else sc.frames_per_sequence,
-                              temporal=temporal)
+                              temporal=temporal, threads=sc.threads)
             res = train(ds_path, out / "runs" / name, cfg, resume=True, progress=progress)
             return {"best_epoch": res["best_epoch"], "best_val_mae_m": res["best_val_mae_m"],
                     "train_seconds": res["seconds"]}
@@ -197,6 +199,9 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
         if stages.run(f"train:{name}", train_one) is not None or stages.done(f"train:{name}"):
             runs[name] = out / "runs" / name
 
+    from wavealt.altimetry.train import set_num_threads
+
+    set_num_threads(sc.threads)  # inference too (load_run does not set threads)
     evals: dict[str, dict[str, Any]] = {}
     specs = {f"cnn-{n}": f"cnn:{p}" for n, p in runs.items()}
     specs["dispersion"] = "dispersion"

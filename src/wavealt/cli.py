@@ -221,11 +221,15 @@ def reproduce(out: Path, scale: str) -> None:
 @click.option("--dispersion", type=click.Choice(["gravity-capillary", "gravity"]),
               default="gravity-capillary", show_default=True,
               help="Dispersion relation (gravity: the paper simulator's waves).")
+@click.option("--velocity-mps", default=None,
+              help="Known camera velocity over the water VX,VY (m/s, image axes; 0,0 when "
+                   "hovering): searches the altitude alone.  Without it the drift is searched too.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: float | None,
-             window: int, step: int | None, dispersion: str, as_json: bool,
+             window: int, step: int | None, dispersion: str, velocity_mps: str | None,
+             as_json: bool,
              out: Path | None) -> None:
     """Altitude from a folder of frames or a video file, by the wave dispersion relation."""
     import json
@@ -241,7 +245,8 @@ def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: floa
     if focal_px is None:
         focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
     summary, rows = altitude_series(frames, fps=fps, focal_px=focal_px, window=window,
-                                    step=step, dispersion=dispersion, out=out)
+                                    step=step, dispersion=dispersion, out=out,
+                                    velocity_mps=_range(velocity_mps, "velocity-mps"))
     if as_json:
         click.echo(json.dumps(summary))
         return

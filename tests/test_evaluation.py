@@ -119,6 +119,10 @@ def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
     est = parse_estimator("dispersion")
     assert est.altimeter is None  # bound to the dataset's renderer when evaluated
     res = evaluate(tiny_dataset, est, conditions=["clean"], progress=False, figures=False)
-    assert res.estimator == "dispersion (gravity)" and est.altimeter.dispersion == "gravity"
-    with pytest.raises(ValueError, match="unknown estimator 'dispersion:water'"):
-        parse_estimator("dispersion:water")
+    assert res.estimator == "dispersion (gravity, blind)"
+    assert est.altimeter.dispersion == "gravity"
+    aided = parse_estimator("dispersion-aided:gravity-capillary")
+    assert aided.aided and aided.name == "dispersion (gravity-capillary, velocity known)"
+    for bad in ("dispersion:water", "dispersion-aided:x"):
+        with pytest.raises(ValueError, match=f"unknown estimator '{bad}'"):
+            parse_estimator(bad)

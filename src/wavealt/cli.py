@@ -180,7 +180,9 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
 @cli.command()
 @click.argument("dataset", type=click.Path(path_type=Path))
 @click.option("--estimator", required=True,
-              help="cnn:RUN, constant:RUN, constant (dataset train mean) or dispersion.")
+              help="cnn:RUN, constant:RUN, constant (dataset train mean), dispersion (blind) or "
+                   "dispersion-aided (camera velocity from the manifest); dispersion[-aided]:gravity "
+                   "or :gravity-capillary forces the dispersion relation.")
 @click.option("--conditions", default=None,
               help="Comma-separated test conditions [all conditions of the dataset].")
 @click.option("--split", default="test", show_default=True, help="Split to evaluate.")

@@ -9,7 +9,10 @@ An *estimator* turns the frames of a test sequence into one altitude (m).  Spec 
 ``dispersion``    the physics-based dispersion-relation altimeter (``wavealt.altimetry.dispersion``)
                   with the dispersion relation of the dataset's renderer (``gravity`` for the
                   ``paper`` renderer, ``gravity-capillary`` for ``realistic``);
-                  ``dispersion:gravity`` / ``dispersion:gravity-capillary`` force one
+                  ``dispersion:gravity`` / ``dispersion:gravity-capillary`` force one;
+                  blind: the camera's velocity over the water is searched too
+``dispersion-aided``  the same, given the camera's true velocity from the manifest (as a
+                  vehicle's navigation would give it): only the altitude is searched
 
 ``evaluate`` writes into its output folder:
 
@@ -142,21 +145,28 @@ class DispersionEstimator:
     ----------
     dispersion : {"gravity-capillary", "gravity"} or None
         Dispersion relation; None picks the one of the dataset evaluated (:func:`dispersion_of`).
+    aided : bool
+        Give the altimeter the camera's true velocity over the water (the manifest's
+        ``camera_speed_mps`` / ``camera_dir_deg``; ``(0, 0)`` for a hovering camera), as a
+        vehicle's navigation would, so it searches the altitude only.  Otherwise ("blind")
+        it searches the velocity too.
     """
 
-    def __init__(self, *, dispersion: str | None = None) -> None:
+    def __init__(self, *, dispersion: str | None = None, aided: bool = False) -> None:
         try:
             from wavealt.altimetry.dispersion import DispersionAltimeter
         except ImportError as exc:
             msg = f"estimator 'dispersion' is not available: {exc}"
             raise ValueError(msg) from None
         self._cls = DispersionAltimeter
+        self.aided = bool(aided)
         self.dispersion = dispersion
         self.altimeter = None if dispersion is None else DispersionAltimeter(dispersion=dispersion)
 
     @property
     def name(self) -> str:
-        return "dispersion" if self.dispersion is None else f"dispersion ({self.dispersion})"
+        parts = [p for p in (self.dispersion, "velocity known" if self.aided else "blind") if p]
+        return f"dispersion ({', '.join(parts)})"
 
     def bind(self, dataset: Any) -> None:
         """Fix the dispersion relation to the one of ``dataset``'s renderer, if not given."""
@@ -168,8 +178,10 @@ class DispersionEstimator:
         self.bind(dataset)
         frames = dataset.read_frames(condition, record.sequence_id)
         try:
+            velocity = record.scenario.camera_velocity_mps if self.aided else None
             res = self.altimeter.estimate(frames, fps=record.scenario.fps,
-                                          focal_px=record.scenario.focal_px)
+                                          focal_px=record.scenario.focal_px,
+                                          velocity_mps=velocity)
         except ValueError:
             return math.nan
         return float(res.altitude_m)
@@ -200,10 +212,10 @@ def parse_estimator(spec: str, dataset: Any = None) -> Estimator:
         return ConstantEstimator(float(info["stats"]["target_mean_m"]), source=str(arg))
     if kind == "constant" and dataset is not None:
         return ConstantEstimator(train_split_mean_m(dataset), source="dataset train split")
-    if kind == "dispersion" and arg in ("", "gravity", "gravity-capillary"):
-        return DispersionEstimator(dispersion=arg or None)
-    msg = (f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant, dispersion, "
-           "dispersion:gravity or dispersion:gravity-capillary")
+    if kind in ("dispersion", "dispersion-aided") and arg in ("", "gravity", "gravity-capillary"):
+        return DispersionEstimator(dispersion=arg or None, aided=kind == "dispersion-aided")
+    msg = (f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant, "
+           "dispersion[:gravity|:gravity-capillary] or dispersion-aided[:…]")
     raise ValueError(msg)
 
 

@@ -205,12 +205,13 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
     evals: dict[str, dict[str, Any]] = {}
     specs = {f"cnn-{n}": f"cnn:{p}" for n, p in runs.items()}
     specs["dispersion"] = "dispersion"
+    specs["dispersion-aided"] = "dispersion-aided"
     specs["constant"] = "constant"
     for name, spec in specs.items():
         def eval_one(spec: str = spec, name: str = name) -> dict[str, Any]:
             from wavealt.evaluation import evaluate
 
-            if spec == "dispersion":
+            if spec.startswith("dispersion"):
                 import wavealt.altimetry.dispersion  # noqa: F401  (ImportError -> skipped)
             res = evaluate(ds_path, spec, conditions=conditions, out=out / "eval" / name,
                            progress=progress)
@@ -391,7 +392,9 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
          "Rows: the CNN per training condition (beyond the paper: its conclusion proposes "
          "training on deglinted images), the temporal CNN (all frames of a sequence stacked as "
          "channels), the physics-based dispersion altimeter (no training; the dispersion "
-         "relation of the simulator's renderer) and the constant baseline (training-set mean "
+         "relation of the simulator's renderer), blind (it searches the camera's velocity over "
+         "the water too) and with the velocity known (as a vehicle's navigation gives it), "
+         "and the constant baseline (training-set mean "
          "altitude). Columns: the test condition (`residual` is the paper's eq. (6) glint "
          "estimate; `tmf-min`, `median`, `percentile`, `glint-mask`, `achromatic` are "
          "deglinted frames, see the deglint table below).", ""]

@@ -461,7 +461,10 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
         L.append(f"- {_method_label(name, e)}: {verdict}{rest}{gave_up}.")
     L += ["", "A test split this small (see n above) makes differences of a few tenths of a "
           "metre noise; a model that does not beat the constant has not learnt altitude, "
-          "whatever its MAE looks like next to the paper's.", ""]
+          "whatever its MAE looks like next to the paper's. The dispersion altimeter measures "
+          "the waves' motion from frame to frame: a temporal filter over the whole window "
+          "(`median`, `percentile`, `tmf-min`) freezes that motion, so it cannot work on "
+          "those conditions.", ""]
     return L
 
 

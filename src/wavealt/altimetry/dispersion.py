@@ -456,12 +456,14 @@ class DispersionAltimeter:
         chroma = (arr @ (w * scale).astype(np.float32)).astype(np.float32)
         if self.signal == "chroma":
             return chroma, "chroma"
-        gray = _to_gray(arr)
+        # compare with the luminance once its glint is clipped: glint inflates the raw
+        # luminance variance and would hide a perfectly usable chroma texture
+        luma = deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma)
         var_c = float(np.mean(np.var(chroma, axis=0)))
-        var_l = float(np.mean(np.var(gray, axis=0)))
+        var_l = float(np.mean(np.var(luma, axis=0)))
         if var_l > 0 and var_c >= self.chroma_min_share * var_l:
             return chroma, "chroma"
-        return deglint(gray, method=self.deglint, clip_sigma=self.clip_sigma), "luma"
+        return luma, "luma"
 
     # -- whitened periodogram ----------------------------------------------------------------
     def _periodogram(self, signal: np.ndarray) -> dict[str, np.ndarray]:
@@ -632,7 +634,10 @@ class DispersionAltimeter:
         # the coarse scan needs no more than a fixed subsample of the modes
         sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 1500))
         scan = self._score(p, fps, focal_px, grid, *u_of(grid), modes=sub)
-        i = int(np.argmax(scan))
+        # the best interior peak: a maximum at the edge of the range is no estimate (the
+        # truth lies outside, or slow static content rises toward the high end)
+        interior = np.flatnonzero((scan[1:-1] >= scan[:-2]) & (scan[1:-1] >= scan[2:])) + 1
+        i = int(interior[np.argmax(scan[interior])]) if interior.size else int(np.argmax(scan))
         step = grid[1] - grid[0]
         a, b = max(lo, grid[i] - step), min(hi, grid[i] + step)
         res = minimize_scalar(lambda x: -float(self._score(p, fps, focal_px, np.array([x]),

@@ -77,3 +77,11 @@ def check_frames(frames: Any, *, name: str = "frames", min_frames: int = 1,
             msg = f"{name} must be in [0, 1]; got values in [{lo:.4g}, {hi:.4g}]"
             raise ValueError(msg)
     return arr
+
+
+def check_known_keys(d: dict[str, Any], names: set[str], *, what: str = "config") -> None:
+    """Reject keys of ``d`` outside ``names``: a typo in a config must fail loudly."""
+    unknown = sorted(set(d) - names)
+    if unknown:
+        msg = f"unknown {what} key(s): {', '.join(unknown)}; expected some of {', '.join(sorted(names))}"
+        raise ValueError(msg)

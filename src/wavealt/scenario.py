@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_finite_number
+from wavealt._checks import check_finite_number, check_known_keys
 from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
 
 MIN_SIZE_PX = 32
@@ -212,11 +212,7 @@ class SimConfig:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SimConfig:
         """Build from a dict; unknown keys are an error (a typo must not pass silently)."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            msg = f"unknown config key(s): {', '.join(unknown)}; expected some of {', '.join(sorted(names))}"
-            raise ValueError(msg)
+        check_known_keys(d, {f.name for f in dataclasses.fields(cls)})
         kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         return cls(**kw)
 

@@ -60,6 +60,7 @@ import torch
 from torch import nn
 from tqdm.auto import tqdm
 
+from wavealt._checks import check_known_keys
 from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, create_model, load_pretrained
 
 CHECKPOINT_LAST = "last.pt"
@@ -163,11 +164,7 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TrainConfig:
         """Build from a dict; unknown keys are an error."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            msg = f"unknown train config key(s): {', '.join(unknown)}"
-            raise ValueError(msg)
+        check_known_keys(d, {f.name for f in dataclasses.fields(cls)}, what="train config")
         return cls(**d)
 
 

@@ -4,13 +4,15 @@ its report (``report.md`` and a self-contained ``report.html`` with the figures 
 Every stage records itself in ``OUT/stages.json`` when it finishes; a re-run skips the stages
 already done (and each stage is itself resumable: the simulator and deglinter complete missing
 sequences, training resumes from its last epoch), so an interrupted ``reproduce`` loses at most
-the current epoch.  A stage whose module is missing is recorded as skipped and retried next time.
+the current epoch.  A stage that cannot run yet (say, a training condition the dataset lacks)
+is recorded as skipped and retried next time.
 
-Scales:
+Scales (``SCALES``):
 
-``quick``  120 sequences of 64x64 px, the small registered ResNet (``resnet-small``, 0.5 M
-           parameters), 8 epochs, lr 1e-3, 4 frames per sequence per epoch: about 10 minutes on
-           2 CPU cores.  *Not* the paper's protocol; labelled as such in the report.
+``quick``  120 sequences of 128x128 px (the CNNs see 64x64 px windows, cut without resizing),
+           the small registered ResNet (``resnet-small``, 0.5 M parameters), 16 epochs, lr
+           1e-3, 4 frames per sequence per epoch: a few minutes on 2 CPU cores.  *Not* the
+           paper's protocol; labelled as such in the report.
 ``paper``  the paper's protocol: 200 sequences of 224x224 px (30 test sequences), ResNet-50,
            30 epochs, batch 32, Adam 1e-4 with cosine annealing.
 """
@@ -94,16 +96,13 @@ class _Stages:
         return self.data.get(name, {}).get("status") == "done"
 
     def run(self, name: str, fn: Callable[[], Any]) -> Any:
-        """Run stage ``fn`` unless done; an ImportError marks it skipped (retried next time)."""
+        """Run stage ``fn`` unless done; a ``_Skip`` marks it skipped (retried next time)."""
         if self.done(name):
             return self.data[name].get("result")
         t0 = time.perf_counter()
         try:
             result = fn()
             entry = {"status": "done", "result": result}
-        except ImportError as exc:
-            entry = {"status": f"skipped: module not available ({exc})", "result": None}
-            result = None
         except _Skip as exc:
             entry = {"status": f"skipped: {exc}", "result": None}
             result = None
@@ -212,8 +211,6 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
         def eval_one(spec: str = spec, name: str = name) -> dict[str, Any]:
             from wavealt.evaluation import evaluate
 
-            if spec.startswith("dispersion"):
-                import wavealt.altimetry.dispersion  # noqa: F401  (ImportError -> skipped)
             res = evaluate(ds_path, spec, conditions=conditions, out=out / "eval" / name,
                            progress=progress)
             return {"estimator": res.estimator, "metrics": res.metrics,

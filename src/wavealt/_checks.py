@@ -85,3 +85,11 @@ def check_known_keys(d: dict[str, Any], names: set[str], *, what: str = "config"
     if unknown:
         msg = f"unknown {what} key(s): {', '.join(unknown)}; expected some of {', '.join(sorted(names))}"
         raise ValueError(msg)
+
+
+def check_choice(name: str, value: Any, choices: Any) -> Any:
+    """Check ``value`` is one of ``choices``; return it."""
+    if value not in choices:
+        msg = f"{name} must be one of {', '.join(map(str, choices))}; got {value!r}"
+        raise ValueError(msg)
+    return value

@@ -31,6 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from wavealt._checks import check_choice
+
 DEGLINT_METHODS = ("tmf", "tmf-min", "median", "percentile", "glint-mask", "achromatic")
 
 
@@ -135,9 +137,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
     list of Path
         The two report files.
     """
-    if scale not in SCALES:
-        msg = f"scale must be one of {', '.join(SCALES)}; got {scale!r}"
-        raise ValueError(msg)
+    check_choice("scale", scale, SCALES)
     sc = SCALES[scale]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import as_rng, check_finite_number
+from wavealt._checks import as_rng, check_choice, check_finite_number
 
 COMPRESSIONS = ("none", "jpeg", "h264")
 
@@ -66,9 +66,7 @@ class SensorModel:
         check_finite_number("read_noise_e", self.read_noise_e, low=0.0)
         check_finite_number("target_grey", self.target_grey, low=0.0, high=1.0, low_open=True,
                             high_open=True)
-        if self.compression not in COMPRESSIONS:
-            msg = f"compression must be one of {', '.join(COMPRESSIONS)}; got {self.compression!r}"
-            raise ValueError(msg)
+        check_choice("compression", self.compression, COMPRESSIONS)
         if int(self.jpeg_quality) != self.jpeg_quality or not 1 <= self.jpeg_quality <= 100:
             msg = f"jpeg_quality must be an integer in [1, 100]; got {self.jpeg_quality!r}"
             raise ValueError(msg)

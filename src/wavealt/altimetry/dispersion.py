@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 import scipy.fft
 
-from wavealt._checks import check_finite_number, check_frames
+from wavealt._checks import check_choice, check_finite_number, check_frames
 from wavealt.ocean.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 DISPERSIONS = ("gravity", "gravity-capillary")
@@ -106,9 +106,7 @@ def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) 
     replaces each pixel by ``min(value, temporal median + clip_sigma * MAD)`` per pixel.
     ``"none"`` returns the input.  Both are invariant to a brightness gain and offset.
     """
-    if method not in DEGLINTS:
-        msg = f"deglint must be one of {', '.join(DEGLINTS)}; got {method!r}"
-        raise ValueError(msg)
+    check_choice("deglint", method, DEGLINTS)
     if method == "none":
         return gray
     if method == "clip":
@@ -162,9 +160,7 @@ class DispersionAltimeter:
                  tiles: str = "full", signal: str = "auto", chroma_min_share: float = 0.05,
                  n_psi: int = 128, n_scan: int = 120, n_groups: int = 8,
                  sharpness: float = 5.0) -> None:
-        if signal not in SIGNALS:
-            msg = f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}"
-            raise ValueError(msg)
+        check_choice("signal", signal, SIGNALS)
         self.signal = signal
         self.chroma_min_share = check_finite_number("chroma_min_share", chroma_min_share,
                                                     low=0.0)
@@ -174,16 +170,10 @@ class DispersionAltimeter:
                 raise ValueError(msg)
         self.n_psi, self.n_scan, self.n_groups = int(n_psi), int(n_scan), int(n_groups)
         self.sharpness = check_finite_number("sharpness", sharpness, low=1.0)
-        if tiles not in TILES:
-            msg = f"tiles must be one of {', '.join(TILES)}; got {tiles!r}"
-            raise ValueError(msg)
+        check_choice("tiles", tiles, TILES)
         self.tiles = tiles
-        if dispersion not in DISPERSIONS:
-            msg = f"dispersion must be one of {', '.join(DISPERSIONS)}; got {dispersion!r}"
-            raise ValueError(msg)
-        if deglint not in DEGLINTS:
-            msg = f"deglint must be one of {', '.join(DEGLINTS)}; got {deglint!r}"
-            raise ValueError(msg)
+        check_choice("dispersion", dispersion, DISPERSIONS)
+        check_choice("deglint", deglint, DEGLINTS)
         self.dispersion = dispersion
         self.deglint = deglint
         self.clip_sigma = check_finite_number("clip_sigma", clip_sigma, low=0.0, low_open=True)

@@ -46,7 +46,7 @@ import numpy as np
 import scipy.fft
 from scipy.special import gammaln
 
-from wavealt._checks import as_rng, check_finite_number
+from wavealt._checks import as_rng, check_choice, check_finite_number
 from wavealt.ocean.spectrum import (
     GRAVITY_MPS2, cox_munk_slope_variance, gravity_capillary_omega,
 )
@@ -214,12 +214,8 @@ class SeaSpectrum:
     def __init__(self, *, wind_speed_mps: float, wind_dir_rad: float = 0.0,
                  spectrum: str = "elfouhaily", spreading: str = "cos2s", spreading_s: float = 4.0,
                  inverse_wave_age: float = 0.84, slope_variance: float | None = None) -> None:
-        if spectrum not in SPECTRA:
-            msg = f"spectrum must be one of {', '.join(SPECTRA)}; got {spectrum!r}"
-            raise ValueError(msg)
-        if spreading not in SPREADINGS:
-            msg = f"spreading must be one of {', '.join(SPREADINGS)}; got {spreading!r}"
-            raise ValueError(msg)
+        check_choice("spectrum", spectrum, SPECTRA)
+        check_choice("spreading", spreading, SPREADINGS)
         self.wind_speed_mps, self.inverse_wave_age = _check_wind(wind_speed_mps, inverse_wave_age)
         self.wind_dir_rad = check_finite_number("wind_dir_rad", wind_dir_rad)
         self.spectrum = spectrum

@@ -119,12 +119,14 @@ def shade(slope_x: np.ndarray, slope_y: np.ndarray, view: np.ndarray, sun: np.nd
     fresnel, lobe : (..., H, W) float32 arrays
     """
     inv = 1.0 / np.sqrt(1.0 + slope_x * slope_x + slope_y * slope_y)
-    cx, cy, cz = view[..., 0], view[..., 1], view[..., 2]
-    n_dot_c = (-slope_x * cx - slope_y * cy + cz) * inv
+    # contiguous component planes: strided (H, W, 3) views make every product slower
+    cx, cy, cz = (np.ascontiguousarray(view[..., i], dtype=np.float32) for i in range(3))
+    n_dot_c = (cz - slope_x * cx - slope_y * cy) * inv
     fres = fresnel_unpolarised(n_dot_c, optics.refractive_index)
     half = view + sun.astype(np.float32)
     half /= np.linalg.norm(half, axis=-1, keepdims=True)
-    n_dot_h = (-slope_x * half[..., 0] - slope_y * half[..., 1] + half[..., 2]) * inv
+    hx, hy, hz = (np.ascontiguousarray(half[..., i], dtype=np.float32) for i in range(3))
+    n_dot_h = (hz - slope_x * hx - slope_y * hy) * inv
     lobe = _power(np.maximum(n_dot_h, 0.0).astype(np.float32), optics.lobe_exponent)
     return fres.astype(np.float32, copy=False), lobe
 

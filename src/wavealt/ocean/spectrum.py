@@ -47,13 +47,10 @@ def phillips(kx: np.ndarray, ky: np.ndarray, *, wind_speed_mps: float, wind_dir_
         raise ValueError(msg)
     kx = np.asarray(kx, dtype=np.float64)
     ky = np.asarray(ky, dtype=np.float64)
-    k2 = kx**2 + ky**2
-    big_l = wind_speed_mps**2 / g
-    out = np.zeros(np.broadcast_shapes(kx.shape, ky.shape), dtype=np.float64)
-    nz = k2 > 0
-    k2nz = np.broadcast_to(k2, out.shape)[nz]
-    cos_w = (np.broadcast_to(kx, out.shape)[nz] * np.cos(wind_dir_rad)
-             + np.broadcast_to(ky, out.shape)[nz] * np.sin(wind_dir_rad)) / np.sqrt(k2nz)
-    out[nz] = (amplitude * np.exp(-1.0 / (k2nz * big_l**2)) / k2nz**2
-               * np.maximum(cos_w, 0.0) ** 2)
-    return out
+    k2 = kx * kx + ky * ky
+    big_l2 = (wind_speed_mps**2 / g) ** 2
+    # k = 0 gives 0/0 below; np.where puts the spectrum's value there (zero)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos_w = (kx * np.cos(wind_dir_rad) + ky * np.sin(wind_dir_rad)) / np.sqrt(k2)
+        val = amplitude * np.exp(-1.0 / (k2 * big_l2)) / (k2 * k2) * np.maximum(cos_w, 0.0) ** 2
+    return np.where(k2 > 0, val, 0.0)

@@ -88,11 +88,18 @@ class OceanSurface:
         else:
             s = np.broadcast_to(np.asarray(spectrum(self.kx, self.ky), dtype=np.float64),
                                 (self.n, self.n))[iy, ix]
-        xi = rng.standard_normal((2, iy.size))
-        c = np.sqrt(s * self.dk**2 / 2.0) * (xi[0] + 1j * xi[1]) / np.sqrt(2.0)
-        k_d = np.sqrt(kx_d**2 + ky_d**2)
+        # circular Gaussian c_k with E|c_k|^2 = S dk^2 / 2: real and imaginary parts each
+        # of standard deviation sqrt(S) dk / 2 (single-precision draws: twice as fast, and
+        # far finer than the 8-bit images they end in)
+        xi = rng.standard_normal((2, iy.size), dtype=np.float32)
+        sd = np.sqrt(s) * (self.dk / 2.0)
+        c = np.empty(iy.size, dtype=np.complex128)
+        c.real = sd * xi[0]
+        c.imag = sd * xi[1]
+        k2_d = kx_d**2 + ky_d**2
+        k_d = np.sqrt(k2_d)
         # Cox–Munk rescaling, paper eq. (2): mean-square slope over the domain, all k.
-        ms_slope = 2.0 * np.sum(k_d**2 * np.abs(c) ** 2)
+        ms_slope = 2.0 * float(np.dot(k2_d, c.real**2 + c.imag**2))
         target = (float(cox_munk_slope_variance(self.wind_speed_mps)) if slope_variance is None
                   else check_finite_number("slope_variance", slope_variance, low=0.0,
                                            low_open=True))

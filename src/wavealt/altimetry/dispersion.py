@@ -98,6 +98,24 @@ def _to_gray(frames: np.ndarray) -> np.ndarray:
     return frames.astype(np.float32) * scale
 
 
+def _clip_outliers(signal: np.ndarray, n_sigma: float) -> np.ndarray:
+    """Clip ``signal`` to its robust ``median +- n_sigma`` spread, both ways.
+
+    In the chroma signal the water's colour varies smoothly with the waves; whitecaps (white
+    foam carried along by the water, not dispersive) and saturated glint (all channels at
+    1) are far outliers of it.  Clipping them keeps their outline from posing as waves.
+    Measured on 30 paper-renderer scenes (aided, 256 px): relative MAE clean 4.2 -> 3.8 %,
+    glinty 14.8 -> 4.4 %; on 16 realistic clean scenes, confident (quality > 0.5) errors
+    above 10 % fell from 5 to 1.
+    """
+    sample = signal.ravel()[:: max(1, signal.size // 65_536)]
+    med = float(np.median(sample))
+    mad = float(np.median(np.abs(sample - med))) * 1.4826
+    if mad <= 0:
+        return signal
+    return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad)
+
+
 def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) -> np.ndarray:
     """Suppress glint spikes in ``(T, H, W)`` gray frames before the spectral analysis.
 
@@ -135,7 +153,8 @@ class DispersionAltimeter:
     deglint : {"clip", "median", "none"}
         Glint suppression before the analysis (:func:`deglint`).
     clip_sigma : float
-        Threshold of the deglint, in robust standard deviations.
+        Threshold of the glint clip of the luminance and of the outlier clip of the chroma
+        signal (foam, saturated glint), in robust standard deviations.
     max_modes : int
         Most spatial modes entering the fit (the most coherent-energy ones).
     min_kappa_bins : float
@@ -446,7 +465,8 @@ class DispersionAltimeter:
         # (x - mean_c(x)) . v  ==  x . (v - mean(v)): one weighted sum over the channels
         w = vecs[:, -1] - vecs[:, -1].mean()
         scale = 1.0 / 255.0 if arr.dtype == np.uint8 else 1.0
-        chroma = (arr @ (w * scale).astype(np.float32)).astype(np.float32)
+        chroma = _clip_outliers((arr @ (w * scale).astype(np.float32)).astype(np.float32),
+                                self.clip_sigma)
         if self.signal == "chroma":
             return chroma, "chroma"
         # compare with the luminance once its glint is clipped: glint inflates the raw

@@ -156,7 +156,8 @@ class DispersionAltimeter:
         Threshold of the glint clip of the luminance and of the outlier clip of the chroma
         signal (foam, saturated glint), in robust standard deviations.
     max_modes : int
-        Most spatial modes entering the fit (the most coherent-energy ones).
+        Most spatial modes entering the fit (blind: the most coherent-energy ones; aided: a
+        fixed, even subsample of the plane).
     min_kappa_bins : float
         Lowest radial wavenumber used, in FFT bins (lower ones carry the window's leakage
         and the illumination's slow gradients).

@@ -181,3 +181,18 @@ def test_dense_advected_foam_is_flagged() -> None:
     res = DispersionAltimeter(dispersion="gravity").estimate(
         frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=sc.camera_velocity_mps)
     assert abs(res.altitude_m - h) / h < 0.05 or res.quality < 0.3
+
+
+@pytest.mark.parametrize("method", ["median", "tmf-min"])
+def test_frozen_motion_is_flagged_not_reported(method: str) -> None:
+    """A temporal filter over the whole window freezes the waves: the altitude scan then
+    rises to the edge of the range, and the estimate must say it found nothing."""
+    from wavealt.deglint import apply_method
+
+    cfg = preset_config("paper", size=128, altitude_m=(3.0, 3.0), wind_speed_mps=(6.0, 6.0))
+    frames = apply_method(generate_sequence(cfg.sample_scenario(0), cfg).glinty, method,
+                          window=10)
+    res = DispersionAltimeter(dispersion="gravity").estimate(
+        frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=(0.0, 0.0))
+    assert res.quality < 0.3
+    assert res.altitude_std_m > 0.3 * res.altitude_m

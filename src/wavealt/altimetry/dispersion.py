@@ -662,7 +662,7 @@ class DispersionAltimeter:
         logh = float(res.x)
         ux, uy = u_of(np.array([logh]))
         return {"logh": logh, "u": np.array([ux[0], uy[0]]), "score": -float(res.fun),
-                "scan": scan, "grid": grid}
+                "scan": scan, "grid": grid, "interior": bool(interior.size)}
 
     def _identifiability(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                          fit: dict[str, Any]) -> float:
@@ -714,6 +714,8 @@ class DispersionAltimeter:
         # contrast 0.64-0.96 on rendered clean and glinty frames, 1-15 m); textures without
         # dispersion (white or smoothed noise) reach 0.13-0.21.
         q = float(np.clip((contrast - 0.25) / 0.45, 0.0, 1.0))
+        if not fit.get("interior", True):
+            q = 0.0  # the scan rose to the edge of the range: no altitude inside it fits
         q *= float(np.clip(1.0 - sd_logh / 0.1, 0.0, 1.0))
         sd_logh = sd_logh + (1.0 - q) ** 3  # an untrusted fit must not look precise
         alt = math.exp(logh)

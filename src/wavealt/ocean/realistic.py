@@ -245,24 +245,24 @@ class SeaSpectrum:
         return elfouhaily_spreading(k, theta, wind_speed_mps=self.wind_speed_mps,
                                     inverse_wave_age=self.inverse_wave_age)
 
-    def density(self, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
-        """Directional density ``S(kx, ky) = F(k) / k D(k, theta)``, m^2 / (rad/m)^2."""
-        kx = np.asarray(kx, dtype=np.float64)
-        ky = np.asarray(ky, dtype=np.float64)
-        k = np.sqrt(kx**2 + ky**2)
-        theta = np.arctan2(ky, kx) - self.wind_dir_rad
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.where(k > 0, self.omni(k) / np.where(k > 0, k, 1.0), 0.0)
-        return out * self.spreading_fn(k, theta)
-
-    def density_pair(self, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(S(k), S(-k))``: the density toward ``k`` and toward ``-k`` (one ``F`` evaluation)."""
+    def _polar(self, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(k, theta from the wind, F(k) / k)`` of wavenumber vectors (0 at k = 0)."""
         kx = np.asarray(kx, dtype=np.float64)
         ky = np.asarray(ky, dtype=np.float64)
         k = np.sqrt(kx**2 + ky**2)
         theta = np.arctan2(ky, kx) - self.wind_dir_rad
         with np.errstate(divide="ignore", invalid="ignore"):
             f_over_k = np.where(k > 0, self.omni(k) / np.where(k > 0, k, 1.0), 0.0)
+        return k, theta, f_over_k
+
+    def density(self, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
+        """Directional density ``S(kx, ky) = F(k) / k D(k, theta)``, m^2 / (rad/m)^2."""
+        k, theta, f_over_k = self._polar(kx, ky)
+        return f_over_k * self.spreading_fn(k, theta)
+
+    def density_pair(self, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(S(k), S(-k))``: the density toward ``k`` and toward ``-k`` (one ``F`` evaluation)."""
+        k, theta, f_over_k = self._polar(kx, ky)
         return (f_over_k * self.spreading_fn(k, theta),
                 f_over_k * self.spreading_fn(k, theta + math.pi))
 

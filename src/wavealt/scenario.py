@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_finite_number, check_known_keys
+from wavealt._checks import check_choice, check_finite_number, check_known_keys
 from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
 
 MIN_SIZE_PX = 32
@@ -70,6 +70,16 @@ class Scenario:
 
 
 Range = tuple[float, float]
+
+
+def _check_range(name: str, r: Range, *, low: float | None = None, high: float | None = None,
+                 low_open: bool = False, high_open: bool = False) -> None:
+    """A config range ``(low, high)``: two finite numbers in bounds, in order."""
+    if len(r) != 2 or r[0] > r[1]:
+        msg = f"{name} must be a range (low, high) with low <= high; got {r!r}"
+        raise ValueError(msg)
+    for x in r:
+        check_finite_number(name, x, low=low, high=high, low_open=low_open, high_open=high_open)
 
 
 @dataclass(frozen=True)
@@ -154,13 +164,8 @@ class SimConfig:
             "camera_dir_deg": (None, None, False),
         }
         for name, (lo, hi, lo_open) in bounds.items():
-            r = getattr(self, name)
-            if len(r) != 2 or r[0] > r[1]:
-                msg = f"{name} must be a range (low, high) with low <= high; got {r!r}"
-                raise ValueError(msg)
-            for x in r:
-                check_finite_number(name, x, low=lo, high=hi, low_open=lo_open,
-                                    high_open=(name == "sun_zenith_deg"))
+            _check_range(name, getattr(self, name), low=lo, high=hi, low_open=lo_open,
+                         high_open=(name == "sun_zenith_deg"))
 
         self._check_realistic()
 
@@ -170,9 +175,7 @@ class SimConfig:
 
         choices = {"renderer": RENDERERS, "spectrum": SPECTRA, "spreading": SPREADINGS}
         for name, allowed in choices.items():
-            if getattr(self, name) not in allowed:
-                msg = f"{name} must be one of {', '.join(allowed)}; got {getattr(self, name)!r}"
-                raise ValueError(msg)
+            check_choice(name, getattr(self, name), allowed)
         bounds = {
             "spreading_s": (0.0, None),
             "inverse_wave_age": (0.83, 5.0),
@@ -182,12 +185,7 @@ class SimConfig:
             "vignetting": (0.0, 1.0),
         }
         for name, (lo, hi) in bounds.items():
-            r = getattr(self, name)
-            if len(r) != 2 or r[0] > r[1]:
-                msg = f"{name} must be a range (low, high) with low <= high; got {r!r}"
-                raise ValueError(msg)
-            for x in r:
-                check_finite_number(name, x, low=lo, high=hi)
+            _check_range(name, getattr(self, name), low=lo, high=hi)
         for name in ("whitecaps", "srgb"):
             if not isinstance(getattr(self, name), bool):
                 msg = f"{name} must be true or false; got {getattr(self, name)!r}"

@@ -100,6 +100,11 @@ def _to_gray(frames: np.ndarray) -> np.ndarray:
     return frames.astype(np.float32) * scale
 
 
+def _hann2d(h: int, w: int) -> np.ndarray:
+    """Separable Hann window ``(h, w)`` float32, zero-free (spectral leakage of a clip)."""
+    return (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+
+
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -255,7 +260,7 @@ class DispersionAltimeter:
         else:
             h, w = h0, w0
             parts = [gray]
-        win = (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+        win = _hann2d(h, w)
         cross = np.zeros((h, w // 2 + 1), dtype=np.complex128)
         amp = np.zeros((h, w // 2 + 1))
         for part in parts:
@@ -507,7 +512,7 @@ class DispersionAltimeter:
         """
         t, h, w = signal.shape
         x = signal - signal.mean(axis=0, keepdims=True)
-        win = (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+        win = _hann2d(h, w)
         f = scipy.fft.rfft2(x * win, axes=(1, 2), workers=1)
         ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
         kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]

@@ -82,10 +82,6 @@ SCALES: dict[str, ReproduceScale] = {
 }
 
 
-class _Skip(Exception):
-    """A stage that cannot run yet (missing input); recorded as skipped, retried next time."""
-
-
 class _Stages:
     """``OUT/stages.json``: which stages are done, with their wall times."""
 
@@ -98,16 +94,12 @@ class _Stages:
         return self.data.get(name, {}).get("status") == "done"
 
     def run(self, name: str, fn: Callable[[], Any]) -> Any:
-        """Run stage ``fn`` unless done; a ``_Skip`` marks it skipped (retried next time)."""
+        """Run stage ``fn`` unless done; record its result and wall time."""
         if self.done(name):
             return self.data[name].get("result")
         t0 = time.perf_counter()
-        try:
-            result = fn()
-            entry = {"status": "done", "result": result}
-        except _Skip as exc:
-            entry = {"status": f"skipped: {exc}", "result": None}
-            result = None
+        result = fn()
+        entry = {"status": "done", "result": result}
         entry["seconds"] = round(time.perf_counter() - t0, 2)
         self.data[name] = entry
         self._write()

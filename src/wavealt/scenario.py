@@ -16,6 +16,7 @@ import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_known_keys
 from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
+from wavealt.sensor import SensorModel
 
 MIN_SIZE_PX = 32
 RENDERERS = ("paper", "realistic")
@@ -126,12 +127,13 @@ class SimConfig:
     pitch_deg: Range = (0.0, 0.0)
     vignetting: Range = (0.0, 0.0)
     whitecaps: bool = False
-    full_well_e: float = 20000.0
-    read_noise_e: float = 5.0
-    srgb: bool = True
-    compression: str = "none"
-    jpeg_quality: int = 90
-    h264_crf: int = 23
+    # the camera's defaults are the sensor model's own (one source of truth)
+    full_well_e: float = SensorModel.full_well_e
+    read_noise_e: float = SensorModel.read_noise_e
+    srgb: bool = SensorModel.srgb
+    compression: str = SensorModel.compression
+    jpeg_quality: int = SensorModel.jpeg_quality
+    h264_crf: int = SensorModel.h264_crf
 
     def __post_init__(self) -> None:
         if self.preset not in PRESETS:
@@ -171,7 +173,6 @@ class SimConfig:
 
     def _check_realistic(self) -> None:
         from wavealt.ocean.realistic import SPECTRA, SPREADINGS
-        from wavealt.sensor import SensorModel
 
         choices = {"renderer": RENDERERS, "spectrum": SPECTRA, "spreading": SPREADINGS}
         for name, allowed in choices.items():

@@ -126,12 +126,14 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float) -> np.ndarray:
     glinty 14.8 -> 4.4 %; on 16 realistic clean scenes, confident (quality > 0.5) errors
     above 10 % fell from 5 to 1.
     """
-    sample = signal.ravel()[:: max(1, signal.size // 65_536)]
+    sample = signal.ravel()[:: max(1, signal.size // 16_384)]
     med = float(np.median(sample))
     mad = float(np.median(np.abs(sample - med))) * 1.4826
     if mad <= 0:
         return signal
-    return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad)
+    # in place: ``signal`` is the chroma projection, made for this call alone
+    np.maximum(signal, med - n_sigma * mad, out=signal)
+    return np.minimum(signal, med + n_sigma * mad, out=signal)
 
 
 def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) -> np.ndarray:
@@ -196,7 +198,7 @@ class DispersionAltimeter:
                  max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
                  altitude_range_m: tuple[float, float] = (0.5, 20.0),
                  tiles: str = "full", signal: str = "auto", chroma_min_share: float = 0.05,
-                 n_psi: int = 128, n_scan: int = 120, n_groups: int = 8,
+                 n_psi: int = 64, n_scan: int = 80, n_groups: int = 8,
                  sharpness: float = 5.0) -> None:
         check_choice("signal", signal, SIGNALS)
         self.signal = signal
@@ -488,14 +490,16 @@ class DispersionAltimeter:
                                 self.clip_sigma)
         if self.signal == "chroma":
             return chroma, "chroma"
-        # compare with the luminance once its glint is clipped: glint inflates the raw
-        # luminance variance and would hide a perfectly usable chroma texture
-        luma = deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma)
-        var_c = float(np.mean(np.var(chroma[:, ::4, ::4], axis=0)))
-        var_l = float(np.mean(np.var(luma[:, ::4, ::4], axis=0)))
+        # compare with the luminance once its glint is clipped (glint inflates the raw
+        # luminance variance and would hide a perfectly usable chroma texture), on every
+        # 6th pixel both ways: the full luminance is made only when it is the signal
+        luma_sub = deglint(_to_gray(arr[:, ::6, ::6]), method=self.deglint,
+                           clip_sigma=self.clip_sigma)
+        var_c = float(np.mean(np.var(chroma[:, ::6, ::6], axis=0)))
+        var_l = float(np.mean(np.var(luma_sub, axis=0)))
         if var_l > 0 and var_c >= self.chroma_min_share * var_l:
             return chroma, "chroma"
-        return luma, "luma"
+        return deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma), "luma"
 
     # -- whitened periodogram ----------------------------------------------------------------
     def _periodogram(self, signal: np.ndarray) -> dict[str, np.ndarray]:
@@ -511,48 +515,68 @@ class DispersionAltimeter:
         against the 2 pi / T resolution of a short clip.
         """
         t, h, w = signal.shape
-        x = signal - signal.mean(axis=0, keepdims=True)
-        win = _hann2d(h, w)
-        f = scipy.fft.rfft2(x * win, axes=(1, 2), workers=1)
-        ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
-        kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]
-        ky, kx = np.broadcast_arrays(ky, kx)
-        kappa = np.hypot(kx, ky)
-        bin_kappa = 2.0 * np.pi / max(h, w)
-        valid = ((kappa >= self.min_kappa_bins * bin_kappa) & (kappa <= self.max_kappa_frac * np.pi)
-                 & ~((kx == 0) & (ky < 0)))
-        idx = np.flatnonzero(valid.ravel())
-        xs = f.reshape(t, -1)[:, idx]
-        energy = np.sum(np.abs(xs) ** 2, axis=0)
+        kx, ky, kappa, idx = self._plane(h, w)
+        f = scipy.fft.rfft2(signal * _hann2d(h, w), axes=(1, 2), workers=1)
+        xs = f.reshape(t, -1)[:, idx].T.astype(np.complex64)  # (modes, T)
+        # the temporal mean of every pixel, removed where it is cheap: per selected mode
+        xs -= xs.mean(axis=1, keepdims=True)
+        energy = np.einsum("mt,mt->m", xs.real, xs.real) + np.einsum("mt,mt->m", xs.imag,
+                                                                      xs.imag)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
-        idx, xs, energy = idx[keep], xs[:, keep], energy[keep]
-        if idx.size > self.max_modes:
-            # a fixed, even subsample over the plane (not the strongest: that would pick
-            # the low wavenumbers only)
-            sel = np.random.default_rng(0).choice(idx.size, self.max_modes, replace=False)
-            sel.sort()
-            idx, xs, energy = idx[sel], xs[:, sel], energy[sel]
+        idx, xs, energy = idx[keep], xs[keep], energy[keep]
         n_psi = self.n_psi
-        z = scipy.fft.ifft(xs, n=n_psi, axis=0, workers=1) * n_psi  # sum_t X_t e^{+i psi_j t}
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
+        # sum_t X_t e^{+i psi_j t} for every mode and table step: one small matrix product
+        # (T is short, so this beats an n_psi-point FFT per mode)
+        z = xs @ np.exp(1j * np.outer(np.arange(t), psi)).astype(np.complex64)
         dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
         denom = np.maximum(t - dirichlet / t, 1e-9)
-        q = (np.abs(z) ** 2 / denom[:, None] / energy[None, :]).T  # (modes, n_psi)
-        q[:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
+        # explained share |z|^2 / D(psi) / E, into a table with one wrap column
+        q = np.empty((idx.size, n_psi + 1), dtype=np.float32)
+        zr, zi = z.real, z.imag
+        np.multiply(zr, zr, out=q[:, :n_psi])
+        q[:, :n_psi] += zi * zi
+        q[:, :n_psi] *= (1.0 / denom).astype(np.float32)[None, :]
+        q[:, :n_psi] *= (1.0 / energy).astype(np.float32)[:, None]
+        q[:, :n_psi][:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
         # Sharpen: a mode counts in proportion to (explained share)^sharpness, so modes that
         # one travelling wave explains almost wholly dominate, and modes that mix the wave
         # with the rendering's non-linear products (harmonics, sum and difference
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
-        q = _sharpen(q.astype(np.float32), self.sharpness)
-        q = np.concatenate([q, q[:, :1]], axis=1)  # wrap for interpolation
-        return {"q": q, "kx": kx.ravel()[idx], "ky": ky.ravel()[idx],
-                "kappa": kappa.ravel()[idx], "bin_kappa": np.array(bin_kappa)}
+        q[:, :n_psi] = _sharpen(q[:, :n_psi], self.sharpness)
+        q[:, n_psi] = q[:, 0]  # wrap for interpolation
+        return {"q": q, "kx": kx[idx], "ky": ky[idx], "kappa": kappa[idx],
+                "bin_kappa": np.array(2.0 * np.pi / max(h, w))}
 
-    def _score(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
-               logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-               modes: np.ndarray | None = None) -> np.ndarray:
-        """Mean explained share over modes for candidates ``(log h, ux, uy)`` (same shape).
+    def _plane(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane and the indices of
+        the modes the periodogram uses: the band ``[min_kappa_bins, max_kappa_frac pi]``,
+        one of each ``+-ky`` pair on the ``kx = 0`` column, at most ``max_modes`` of them
+        (a fixed, even subsample over the plane; the strongest would be the low
+        wavenumbers only).  Cached per frame size."""
+        key = (h, w)
+        cache = self.__dict__.setdefault("_plane_cache", {})
+        if key not in cache:
+            ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
+            kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]
+            ky, kx = (a.ravel() for a in np.broadcast_arrays(ky, kx))
+            kappa = np.hypot(kx, ky)
+            bin_kappa = 2.0 * np.pi / max(h, w)
+            valid = ((kappa >= self.min_kappa_bins * bin_kappa)
+                     & (kappa <= self.max_kappa_frac * np.pi) & ~((kx == 0) & (ky < 0)))
+            idx = np.flatnonzero(valid)
+            if idx.size > self.max_modes:
+                sel = np.random.default_rng(0).choice(idx.size, self.max_modes, replace=False)
+                idx = idx[np.sort(sel)]
+            cache[key] = (kx, ky, kappa, idx)
+        return cache[key]
+
+    def _mode_values(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                     logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                     modes: np.ndarray | None = None) -> np.ndarray:
+        """Explained share of every mode for candidates ``(log h, ux, uy)`` (same shape):
+        ``(candidates, modes)`` float32.
 
         A candidate predicts each mode's phase step ``s omega(kappa f / h) / fps - kappa.u``
         (eq. (1)); each mode takes the better of the two directions ``s = +-1``.
@@ -562,20 +586,35 @@ class DispersionAltimeter:
         kx = p["kx"] if modes is None else p["kx"][modes]
         ky = p["ky"] if modes is None else p["ky"][modes]
         n_psi = q.shape[1] - 1
+        to_bins = n_psi / (2.0 * np.pi)
         logh = np.atleast_1d(logh)[:, None]
-        om = self.omega(kappa[None, :] * focal_px / np.exp(logh)) / fps
-        dop = np.atleast_1d(ux)[:, None] * kx[None, :] + np.atleast_1d(uy)[:, None] * ky[None, :]
+        if self.dispersion == "gravity":
+            # omega = sqrt(g kappa f / h): one outer product instead of a matrix of sqrt
+            om = (np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)) \
+                * np.sqrt(kappa)[None, :]
+        else:
+            om = self.omega(kappa[None, :] * focal_px / np.exp(logh)) * (to_bins / fps)
+        dop = (np.atleast_1d(ux)[:, None] * (kx * to_bins)[None, :]
+               + np.atleast_1d(uy)[:, None] * (ky * to_bins)[None, :])
         flat = q.ravel()
         base = (np.arange(q.shape[0]) * q.shape[1])[None, :]
         best = None
-        for s in (1.0, -1.0):
-            pos = np.mod(s * om - dop, 2.0 * np.pi) * (n_psi / (2.0 * np.pi))
-            j = np.minimum(pos.astype(np.int64), n_psi - 1) + base
-            frac = (pos - (j - base)).astype(np.float32)
+        for pos in (om - dop, -om - dop):  # phase steps in table bins, s = +1 and -1
+            pos = pos.astype(np.float32)
+            pos -= np.floor(pos * np.float32(1.0 / n_psi)) * np.float32(n_psi)
+            j = np.minimum(pos.astype(np.int64), n_psi - 1)
+            frac = pos - j
+            j += base
             lo = flat[j]
             val = lo + (flat[j + 1] - lo) * frac
             best = val if best is None else np.maximum(best, val)
-        return best.mean(axis=1)
+        return best
+
+    def _score(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+               logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+               modes: np.ndarray | None = None) -> np.ndarray:
+        """Mean explained share over modes for candidates ``(log h, ux, uy)`` (same shape)."""
+        return self._mode_values(p, fps, focal_px, logh, ux, uy, modes).mean(axis=1)
 
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
@@ -619,7 +658,7 @@ class DispersionAltimeter:
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
         signal, _ = self._signal(arr)
-        if float(np.mean(np.var(signal, axis=0))) <= 1e-12:
+        if float(np.mean(np.var(signal[:, ::4, ::4], axis=0))) <= 1e-12:
             return self._failed(t)
         p = self._periodogram(signal)
         if p["kappa"].size < 12:
@@ -654,8 +693,15 @@ class DispersionAltimeter:
 
     def _fit_aided(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                    velocity_mps: tuple[float, float]) -> dict[str, Any]:
-        """Known camera velocity over the water: a 1-D search over the altitude alone."""
-        from scipy.optimize import minimize_scalar
+        """Known camera velocity over the water: a 1-D search over the altitude alone.
+
+        A coarse scan over log altitude picks the most *prominent* interior peak (not the
+        highest: slow or frozen content, e.g. wave groups or glint, makes the scan rise
+        steadily toward high altitudes, and a bump on that rise is no wave shell).  A fine
+        grid around it, evaluated once per mode, gives both the estimate (parabolic peak of
+        the mean) and its spread over mode groups (:meth:`_result`).
+        """
+        from scipy.signal import find_peaks
 
         vx, vy = (float(v) for v in velocity_mps)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
@@ -664,23 +710,30 @@ class DispersionAltimeter:
             scale = focal_px / (np.exp(logh) * fps)  # m/s -> px/frame at this altitude
             return vx * scale, vy * scale
 
-        grid = np.linspace(lo, hi, self.n_scan)
+        # The scan reaches past the altitude range (x1.5 below, x4 above, same step) so that
+        # a peak near an end of the range has the fall on both of its sides measured: at
+        # high altitudes the shell's peak is broad (the waves move little in a short clip).
+        step = (hi - lo) / (self.n_scan - 1)
+        grid = np.arange(lo - math.log(1.5), hi + math.log(4.0) + step / 2, step)
         # the coarse scan needs no more than a fixed subsample of the modes
-        sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 1500))
+        sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 500))
         scan = self._score(p, fps, focal_px, grid, *u_of(grid), modes=sub)
-        # the best interior peak: a maximum at the edge of the range is no estimate (the
-        # truth lies outside, or slow static content rises toward the high end)
-        interior = np.flatnonzero((scan[1:-1] >= scan[:-2]) & (scan[1:-1] >= scan[2:])) + 1
-        i = int(interior[np.argmax(scan[interior])]) if interior.size else int(np.argmax(scan))
-        step = grid[1] - grid[0]
-        a, b = max(lo, grid[i] - step), min(hi, grid[i] + step)
-        res = minimize_scalar(lambda x: -float(self._score(p, fps, focal_px, np.array([x]),
-                                                           *u_of(np.array([x])))[0]),
-                              bounds=(a, b), method="bounded", options={"xatol": 2e-4})
-        logh = float(res.x)
+        peaks, props = find_peaks(scan, prominence=0.0)
+        inside = (grid[peaks] >= lo - step) & (grid[peaks] <= hi + step)
+        if peaks.size:
+            k = int(np.argmax(props["prominences"]))
+            i, prominence = int(peaks[k]), float(props["prominences"][k])
+        else:  # the scan rises to an edge: no altitude fits
+            i, prominence = int(np.argmax(scan)), 0.0
+        interior = bool(peaks.size) and bool(inside[k] if peaks.size else False)
+        local = grid[i] + np.linspace(-1.2, 1.2, 21) * step
+        vals = self._mode_values(p, fps, focal_px, local, *u_of(local))
+        mean = vals.mean(axis=1)
+        logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
         ux, uy = u_of(np.array([logh]))
-        return {"logh": logh, "u": np.array([ux[0], uy[0]]), "score": -float(res.fun),
-                "scan": scan, "grid": grid, "interior": bool(interior.size)}
+        return {"logh": logh, "u": np.array([ux[0], uy[0]]), "score": float(mean.max()),
+                "scan": scan, "grid": grid, "interior": interior,
+                "prominence": prominence, "local": local, "vals": vals}
 
     def _identifiability(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                          fit: dict[str, Any]) -> float:
@@ -711,38 +764,30 @@ class DispersionAltimeter:
 
     def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
                 focal_px: float) -> DispersionResult:
-        """Uncertainty by splitting the modes into groups and refitting the altitude in
-        each (velocity held); quality from how far the fitted shell stands above the
-        explained share a random phase step gets."""
+        """Uncertainty from the spread of the peak over groups of modes (velocity held);
+        quality from the peak's prominence in the altitude scan."""
         logh, u = fit["logh"], fit["u"]
-        n = p["kappa"].size
-        groups = np.array_split(np.random.default_rng(1).permutation(n), self.n_groups)
-        local = logh + np.linspace(-0.12, 0.12, 25)
-        step = local[1] - local[0]
-        # the camera's speed over the water is known: its image speed scales as 1 / altitude
-        shrink = np.exp(logh - local)
-        ests = []
-        for g in groups:
-            sc = self._score(p, fps, focal_px, local, u[0] * shrink, u[1] * shrink, modes=g)
-            j = int(np.clip(np.argmax(sc), 1, local.size - 2))
-            # parabolic interpolation of the peak between grid points
-            den = sc[j - 1] - 2.0 * sc[j] + sc[j + 1]
-            off = 0.5 * (sc[j - 1] - sc[j + 1]) / den if den < 0 else 0.0
-            ests.append(local[j] + float(np.clip(off, -1.0, 1.0)) * step)
-        ests = np.asarray(ests)
+        vals, local = fit["vals"], fit["local"]
+        n = vals.shape[1]
+        labels = np.empty(n, dtype=np.int64)
+        labels[np.random.default_rng(1).permutation(n)] = np.arange(n) % self.n_groups
+        # per-group mean curves over the fine grid from one pass over the (grid, mode) matrix
+        sums = np.stack([np.bincount(labels, weights=row, minlength=self.n_groups)
+                         for row in vals], axis=1)
+        ests = np.array([_parabolic_peak(local, row) for row in sums])
         # statistical spread of the mode groups, plus a systematic floor: the bias the finite
         # clip and the optics' non-linearity leave (0.2-0.4 % even on an ideal camera, a few
         # per cent at 6-15 m on rendered frames; bench_dispersion.py)
         sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), SD_FLOOR_LOG)
-        background = float(np.median(fit["scan"]))
-        peak = fit["score"]
-        contrast = 1.0 - background / max(peak, 1e-30)
-        # The fitted shell of a real sea stands far above the altitude scan's median (peak
-        # contrast 0.64-0.96 on rendered clean and glinty frames, 1-15 m); textures without
-        # dispersion (white or smoothed noise) reach 0.13-0.21.
-        q = float(np.clip((contrast - 0.25) / 0.45, 0.0, 1.0))
-        if not fit.get("interior", True):
-            q = 0.0  # the scan rose to the edge of the range: no altitude inside it fits
+        # The wave shell of a real sea stands out of the altitude scan as a prominent peak
+        # (prominence 0.45-0.95 of its height on rendered clean and glinty frames, 1-15 m);
+        # textures without dispersion (noise, frozen or carried patterns) make at most small
+        # bumps on a scan that rises toward the edge of the range.
+        rel_prom = fit["prominence"] / max(float(np.max(fit["scan"])), 1e-30)
+        self._last_rel_prom = rel_prom
+        q = float(np.clip((rel_prom - 0.1) / 0.3, 0.0, 1.0))
+        if not fit["interior"]:
+            q = 0.0  # the most prominent peak lies outside the altitude range, or none
         q *= float(np.clip(1.0 - sd_logh / 0.1, 0.0, 1.0))
         sd_logh = sd_logh + (1.0 - q) ** 3  # an untrusted fit must not look precise
         alt = math.exp(logh)
@@ -750,6 +795,15 @@ class DispersionAltimeter:
         vel = (float(-u[0] * fps * alt / focal_px), float(-u[1] * fps * alt / focal_px))
         return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
                                 velocity_mps=vel, quality=q, frames=int(t), n_modes=int(n))
+
+
+def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:
+    """Abscissa of the maximum of ``y`` over the even grid ``x``, refined by a parabola
+    through the best point and its neighbours."""
+    j = int(np.clip(np.argmax(y), 1, y.size - 2))
+    den = y[j - 1] - 2.0 * y[j] + y[j + 1]
+    off = 0.5 * (y[j - 1] - y[j + 1]) / den if den < 0 else 0.0
+    return float(x[j] + float(np.clip(off, -1.0, 1.0)) * (x[1] - x[0]))
 
 
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,

@@ -270,18 +270,11 @@ class DispersionAltimeter:
             f = scipy.fft.rfft2(x * win, axes=(1, 2), workers=1)
             cross += np.sum(f[1:] * np.conj(f[:-1]), axis=0)
             amp += np.sum(np.abs(f[1:]) * np.abs(f[:-1]), axis=0)
-        ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
-        kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]
-        ky, kx = np.broadcast_arrays(ky, kx)
-        kappa = np.hypot(kx, ky)
+        kx, ky, kappa, band, _ = self._plane(h, w)
         bin_kappa = 2.0 * np.pi / max(h, w)
-        valid = ((kappa >= self.min_kappa_bins * bin_kappa)
-                 & (kappa <= self.max_kappa_frac * np.pi)
-                 # the kx = 0 column holds +ky and -ky twice; keep ky > 0 only
-                 & ~((kx == 0) & (ky < 0)))
         mag = np.abs(cross)
         coh = np.where(amp > 0, mag / np.maximum(amp, 1e-30), 0.0)
-        idx = np.flatnonzero(valid.ravel())
+        idx = band
         # keep every low mode (the velocity search starts there) and, above, the modes of
         # most coherent energy after whitening the steep ~kappa^-2 image spectrum
         low = kappa.ravel()[idx] <= max(0.25, 6.0 * bin_kappa)
@@ -300,7 +293,7 @@ class DispersionAltimeter:
             "kappa": kappa.ravel()[idx].astype(np.float64),
             "weight": 1.0 / (var + 1e-4),
             "energy": mag.ravel()[idx].astype(np.float64),
-            "total_energy": np.array(float(mag[valid].sum())),
+            "total_energy": np.array(float(mag.ravel()[band].sum())),
             "bin_kappa": np.array(bin_kappa),
             "shape": (h, w),
         }
@@ -515,7 +508,7 @@ class DispersionAltimeter:
         against the 2 pi / T resolution of a short clip.
         """
         t, h, w = signal.shape
-        kx, ky, kappa, idx = self._plane(h, w)
+        kx, ky, kappa, _, idx = self._plane(h, w)
         f = scipy.fft.rfft2(signal * _hann2d(h, w), axes=(1, 2), workers=1)
         xs = f.reshape(t, -1)[:, idx].T.astype(np.complex64)  # (modes, T)
         # the temporal mean of every pixel, removed where it is cheap: per selected mode
@@ -549,12 +542,11 @@ class DispersionAltimeter:
         return {"q": q, "kx": kx[idx], "ky": ky[idx], "kappa": kappa[idx],
                 "bin_kappa": np.array(2.0 * np.pi / max(h, w))}
 
-    def _plane(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane and the indices of
-        the modes the periodogram uses: the band ``[min_kappa_bins, max_kappa_frac pi]``,
-        one of each ``+-ky`` pair on the ``kx = 0`` column, at most ``max_modes`` of them
-        (a fixed, even subsample over the plane; the strongest would be the low
-        wavenumbers only).  Cached per frame size."""
+    def _plane(self, h: int, w: int) -> tuple[np.ndarray, ...]:
+        """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the
+        band ``[min_kappa_bins, max_kappa_frac pi]`` (one of each ``+-ky`` pair on the
+        ``kx = 0`` column) and the periodogram's fixed, even subsample of it, at most
+        ``max_modes`` (the strongest would be the low wavenumbers only).  Cached per size."""
         key = (h, w)
         cache = self.__dict__.setdefault("_plane_cache", {})
         if key not in cache:
@@ -563,13 +555,14 @@ class DispersionAltimeter:
             ky, kx = (a.ravel() for a in np.broadcast_arrays(ky, kx))
             kappa = np.hypot(kx, ky)
             bin_kappa = 2.0 * np.pi / max(h, w)
-            valid = ((kappa >= self.min_kappa_bins * bin_kappa)
-                     & (kappa <= self.max_kappa_frac * np.pi) & ~((kx == 0) & (ky < 0)))
-            idx = np.flatnonzero(valid)
-            if idx.size > self.max_modes:
-                sel = np.random.default_rng(0).choice(idx.size, self.max_modes, replace=False)
-                idx = idx[np.sort(sel)]
-            cache[key] = (kx, ky, kappa, idx)
+            band = np.flatnonzero((kappa >= self.min_kappa_bins * bin_kappa)
+                                  & (kappa <= self.max_kappa_frac * np.pi)
+                                  & ~((kx == 0) & (ky < 0)))
+            even = band
+            if band.size > self.max_modes:
+                sel = np.random.default_rng(0).choice(band.size, self.max_modes, replace=False)
+                even = band[np.sort(sel)]
+            cache[key] = (kx, ky, kappa, band, even)
         return cache[key]
 
     def _mode_values(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
@@ -784,7 +777,6 @@ class DispersionAltimeter:
         # textures without dispersion (noise, frozen or carried patterns) make at most small
         # bumps on a scan that rises toward the edge of the range.
         rel_prom = fit["prominence"] / max(float(np.max(fit["scan"])), 1e-30)
-        self._last_rel_prom = rel_prom
         q = float(np.clip((rel_prom - 0.1) / 0.3, 0.0, 1.0))
         if not fit["interior"]:
             q = 0.0  # the most prominent peak lies outside the altitude range, or none

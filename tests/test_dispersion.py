@@ -30,7 +30,7 @@ def _linear_frames(h: float, wind: float, speed: float, direction: float, *, siz
 @pytest.mark.parametrize(("h", "wind", "speed", "direction"),
                          [(1.5, 6.0, 0.0, 0.0), (4.0, 8.0, 0.5, 60.0), (10.0, 10.0, 1.0, 200.0)])
 def test_recovers_altitude_and_drift(h: float, wind: float, speed: float, direction: float) -> None:
-    frames, focal_px, water_v = _linear_frames(h, wind, speed, direction)
+    frames, focal_px, water_v = _linear_frames(h, wind, speed, direction, size=128)
     res = estimate_altitude(frames, fps=30.0, focal_px=focal_px, dispersion="gravity")
     assert isinstance(res, DispersionResult)
     assert abs(res.altitude_m - h) / h < 0.06

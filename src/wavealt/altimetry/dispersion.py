@@ -44,8 +44,14 @@ DISPERSIONS = ("gravity", "gravity-capillary")
 DEGLINTS = ("none", "clip", "median")
 TILES = ("quadrants", "full")
 SIGNALS = ("auto", "chroma", "luma")
-#: Systematic floor of the aided fit's relative uncertainty (log altitude).
+#: Systematic floor of the fit's relative uncertainty (log altitude).
 SD_FLOOR_LOG = 0.01
+#: Quality below which an estimate says it is not to be trusted.
+TRUSTED_QUALITY = 0.3
+#: Largest phase-step misfit (chi^2 per mode against the coherence-predicted phase noise)
+#: of a blind phase-step fit that may stand in for an indecisive profile: 0.6-2.2 on frames
+#: linear in slope, 2.6-10 on the paper renderer's frames (14 + 16 scenes, 10 and 30 frames).
+PHASE_STEP_CHI2 = 2.0
 MIN_FRAMES = 3
 
 
@@ -201,17 +207,20 @@ class DispersionAltimeter:
                  max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
                  altitude_range_m: tuple[float, float] = (0.5, 20.0),
                  tiles: str = "full", signal: str = "auto", chroma_min_share: float = 0.05,
-                 n_psi: int = 64, n_scan: int = 80, n_groups: int = 8,
+                 n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
                  sharpness: float = 5.0) -> None:
         check_choice("signal", signal, SIGNALS)
         self.signal = signal
         self.chroma_min_share = check_finite_number("chroma_min_share", chroma_min_share,
                                                     low=0.0)
         for name, v, least in (("n_psi", n_psi, 16), ("n_scan", n_scan, 8), ("n_groups", n_groups, 3)):
+            if v is None and name == "n_psi":
+                continue
             if int(v) != v or v < least:
                 msg = f"{name} must be an integer >= {least}; got {v!r}"
                 raise ValueError(msg)
-        self.n_psi, self.n_scan, self.n_groups = int(n_psi), int(n_scan), int(n_groups)
+        self.n_psi = None if n_psi is None else int(n_psi)
+        self.n_scan, self.n_groups = int(n_scan), int(n_groups)
         self.sharpness = check_finite_number("sharpness", sharpness, low=1.0)
         check_choice("tiles", tiles, TILES)
         self.tiles = tiles
@@ -428,36 +437,26 @@ class DispersionAltimeter:
             out["cost"] = float(np.sum(w0 * np.minimum(out["r"] ** 2, c_tukey**2)))
         return out
 
-    def _result_blind(self, m: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
-                focal_px: float) -> DispersionResult:
-        use, r, tw = fit["use"], fit["r"], fit["tw"]
-        alt = math.exp(fit["logh"])
-        w0 = m["weight"]
-        inl = use & (tw > 0)
-        n_in = int(np.count_nonzero(inl))
-        if n_in < 6:
-            return self._failed(t)
-        # scale of the phase residuals relative to what the coherences predict
-        wn = (w0 * tw)[use]
-        chi2 = float(np.sum(wn * r[use] ** 2) / max(np.sum(tw[use] > 0) - 3, 1))
-        try:
-            cov = np.linalg.inv(fit["hess"]) * max(chi2, 1.0)
-            sd_logh = float(math.sqrt(max(cov[0, 0], 0.0)))
-        except np.linalg.LinAlgError:
-            sd_logh = 10.0
-        # energy share: how much of the coherent spectral energy follows the fitted shell
-        e = m["energy"]
-        share_e = float(np.sum((e * tw)[use]) / max(np.sum(e[use]), 1e-30))
-        share_w = float(np.sum((w0 * tw)[use]) / max(np.sum(w0[use]), 1e-30))
-        rel = sd_logh
-        q = share_e * min(1.0, n_in / 40.0) / (1.0 + (rel / 0.05) ** 2)
-        q = float(np.clip(q * min(1.0, 2.0 * share_w), 0.0, 1.0))
-        # floor on the uncertainty: an untrusted fit must not look precise
-        sd_logh = max(sd_logh, 0.0) + 3.0 * (1.0 - q) ** 3
-        u = fit["u"]
-        vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
-        return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
-                                velocity_mps=vel, quality=q, frames=int(t), n_modes=n_in)
+    def _phase_step_fit(self, m: dict[str, np.ndarray], fps: float,
+                        focal_px: float) -> dict[str, Any]:
+        """Best phase-step fit over the velocity candidates (``u`` in the modes' sign
+        convention: the water's image velocity); empty when none converges."""
+        fit: dict[str, Any] = {}
+        for u0 in self._velocity_candidates(m):
+            alt0 = self._initial(m, fps, focal_px, u0)
+            if alt0 is None:
+                continue
+            cand = self._refine(m, fps, focal_px, alt0, u0)
+            if cand and (not fit or cand["cost"] < fit["cost"]):
+                fit = cand
+        if fit:
+            # phase residuals of the inlier modes relative to the noise their coherence
+            # predicts: ~1 when the steps follow one shell (imagery linear in slope), 3-10 on
+            # rendered frames, whose non-linear products bias the steps
+            use, r, tw = fit["use"], fit["r"], fit["tw"]
+            wn = (m["weight"] * tw)[use]
+            fit["chi2"] = float(np.sum(wn * r[use] ** 2) / max(np.sum(tw[use] > 0) - 3, 1))
+        return fit
 
     # -- signal ----------------------------------------------------------------------------
     def _signal(self, arr: np.ndarray) -> tuple[np.ndarray, str]:
@@ -520,7 +519,8 @@ class DispersionAltimeter:
                                                                       xs.imag)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         idx, xs, energy = idx[keep], xs[keep], energy[keep]
-        n_psi = self.n_psi
+        # the table must resolve the periodogram's peak, 2 pi / T wide: >= ~6 steps per width
+        n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
         # sum_t X_t e^{+i psi_j t} for every mode and table step: one small matrix product
         # (T is short, so this beats an n_psi-point FFT per mode)
@@ -661,29 +661,27 @@ class DispersionAltimeter:
         if velocity_mps is not None:
             fit = self._fit_aided(p, fps, focal_px, velocity_mps)
             return self._result(p, fit, t, fps, focal_px)
-        # Blind: the per-mode phase-step fit of altitude and velocity (exact on imagery
-        # linear in slope), then a check of how well the periodogram pins the altitude
-        # once the velocity is free.
+        # Blind: the per-mode phase-step fit gives a start; the altitude comes from the
+        # periodogram's profile over altitude with the velocity re-fitted at every altitude.
         m = self._modes(signal)
         if m["kappa"].size < 12:
             return self._failed(t)
-        fit = {}
-        for u0 in self._velocity_candidates(m):
-            alt0 = self._initial(m, fps, focal_px, u0)
-            if alt0 is None:
-                continue
-            cand = self._refine(m, fps, focal_px, alt0, u0)
-            if cand and (not fit or cand["cost"] < fit["cost"]):
-                fit = cand
-        if not fit:
+        start = self._phase_step_fit(m, fps, focal_px)
+        if not start:
             return self._failed(t)
-        res = self._result_blind(m, fit, t, fps, focal_px)
-        ident = self._identifiability(p, fps, focal_px, {
-            "logh": fit["logh"], "u": np.asarray(fit["u"], dtype=np.float64),
-            "score": float(self._score(p, fps, focal_px, np.array([fit["logh"]]),
-                                       np.array([fit["u"][0]]), np.array([fit["u"][1]]))[0])})
-        res.quality = float(res.quality * ident)
-        res.altitude_std_m = float(res.altitude_std_m + res.altitude_m * 0.5 * (1.0 - ident))
+        fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"])
+        res = self._result(p, fit, t, fps, focal_px)
+        if res.quality < TRUSTED_QUALITY and start["chi2"] <= PHASE_STEP_CHI2:
+            # The profile does not pin the altitude (a short clip or a small frame) but the
+            # phase steps follow one shell to within their noise (imagery linear in slope,
+            # where the phase-step fit is exact): report that fit, with the profile's
+            # (large) uncertainty.
+            alt = math.exp(start["logh"])
+            u = start["u"]
+            res.altitude_std_m = float(res.altitude_std_m / res.altitude_m * alt)
+            res.altitude_m = float(alt)
+            res.velocity_mps = (float(u[0] * fps * alt / focal_px),
+                                float(u[1] * fps * alt / focal_px))
         return res
 
     def _fit_aided(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
@@ -729,26 +727,74 @@ class DispersionAltimeter:
                 "scan": scan, "grid": grid, "interior": interior,
                 "prominence": prominence, "local": local, "vals": vals}
 
-    def _identifiability(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
-                         fit: dict[str, Any]) -> float:
-        """How well a free velocity leaves the altitude pinned down, in [0, 1].
+    def _best_velocity(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                       logh: float, u: np.ndarray, modes: np.ndarray | None, step: float,
+                       min_step: float = 0.0015) -> tuple[float, np.ndarray]:
+        """Image velocity (px/frame) of highest score at altitude ``exp(logh)``: a compass
+        (pattern) search from ``u``, nine candidates per call, halving ``step`` to
+        ``min_step``."""
+        off = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.float64)
+        lg = np.full(9, logh)
+        best = float(self._score(p, fps, focal_px, lg[:1], u[:1], u[1:], modes)[0])
+        while step >= min_step:
+            cand = u[None, :] + step * off
+            val = self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)
+            j = int(np.argmax(val))
+            if j != 4 and val[j] > best:
+                best, u = float(val[j]), cand[j]
+            else:
+                step *= 0.5
+        return best, u
 
-        Refits the velocity at 0.8 and 1.25 times the fitted altitude: if the score barely
-        drops, drift and a different altitude explain the sequence as well (waves that all
-        travel one way look much like a pattern carried along), and the altitude is weakly
-        determined.
+    def _fit_blind(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                   logh0: float, u0: np.ndarray) -> dict[str, Any]:
+        """Velocity unknown: the profile of the periodogram score over log altitude, the
+        velocity re-fitted at every altitude.
+
+        The per-mode phase steps of the cross-spectra are biased on rendered frames: the
+        difference-frequency products of the non-linear optics (wave groups, which move at
+        the drift plus half the phase speed) pull every measured step toward a slower shell,
+        and a slower shell plus more drift fits them (+10 to +40 % in altitude on the paper
+        renderer).  The periodogram separates the shell from those products once the clip
+        resolves them (about 1 s); along the profile, a drift that trades against altitude
+        leaves a flat profile, which the quality reports.  The profile follows the ridge
+        from the phase-step fit ``(logh0, u0)`` (``u0`` in the periodogram's convention)
+        over ``x1/2.2 .. x1.5`` of its altitude (its bias is upward); the most prominent
+        peak is refined on all modes like the aided fit.
         """
-        from scipy.optimize import minimize
+        from scipy.signal import find_peaks
 
-        drops = []
-        for f in (0.8, 1.25):
-            logh = fit["logh"] + math.log(f)
-            res = minimize(lambda u: -float(self._score(p, fps, focal_px, np.array([logh]),
-                                                        u[:1], u[1:])[0]),
-                           fit["u"] * (1.0 / f), method="Nelder-Mead",
-                           options={"xatol": 1e-3, "fatol": 1e-8, "maxiter": 200})
-            drops.append((fit["score"] + res.fun) / max(fit["score"], 1e-12))
-        return float(np.clip(min(drops) / 0.15, 0.0, 1.0))
+        lo, hi = (math.log(a) for a in self.altitude_range_m)
+        step = 0.05
+        grid = logh0 + np.arange(-0.8, 0.4 + step / 2, step)
+        n = p["kappa"].size
+        sub = np.arange(0, n, max(1, n // 1500))
+        scan = np.empty(grid.size)
+        path = np.empty((grid.size, 2))
+        j0 = int(np.argmin(np.abs(grid - logh0)))
+        for order in (range(j0, grid.size), range(j0 - 1, -1, -1)):
+            u = np.asarray(u0, dtype=np.float64)
+            for j in order:  # continuation along the ridge
+                scan[j], u = self._best_velocity(p, fps, focal_px, float(grid[j]), u, sub, 0.02)
+                path[j] = u
+        peaks, props = find_peaks(scan, prominence=0.0)
+        if peaks.size:
+            k = int(np.argmax(props["prominences"]))
+            i, prominence = int(peaks[k]), float(props["prominences"][k])
+            interior = bool(lo - step <= grid[i] <= hi + step)
+        else:  # the profile rises to an end of the span: nothing pins the altitude
+            i, prominence, interior = int(np.argmax(scan)), 0.0, False
+        local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
+        us = np.empty((local.size, 2))
+        for j, lg in enumerate(local):
+            us[j] = self._best_velocity(p, fps, focal_px, float(lg), path[i], None, 0.005)[1]
+        # per-mode values along the ridge: the group spread then includes the drift's trade
+        vals = self._mode_values(p, fps, focal_px, local, us[:, 0], us[:, 1])
+        mean = vals.mean(axis=1)
+        logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
+        u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
+        return {"logh": logh, "u": u, "score": float(mean.max()), "scan": scan, "grid": grid,
+                "interior": interior, "prominence": prominence, "local": local, "vals": vals}
 
     def _failed(self, frames: int) -> DispersionResult:
         lo, hi = self.altitude_range_m

@@ -72,6 +72,25 @@ def test_blind_flags_ambiguity_instead_of_confident_error() -> None:
     assert err <= 3.0 * res.altitude_std_m or res.quality < 0.3
 
 
+@pytest.mark.parametrize(("h", "wind", "speed", "seed"), [(2.5, 5.0, 0.7, 0), (11.0, 4.0, 0.9, 2)])
+def test_blind_recovers_altitude_and_drift_through_the_renderer_in_one_second(h, wind, speed,
+                                                                             seed) -> None:
+    """Velocity unknown, rendered frames, 30 frames (1 s): the profile over altitude pins the
+    altitude and the drift; glinty frames are recovered or say they are not."""
+    cfg = preset_config("paper", size=256, frames=30, altitude_m=(h, h),
+                        wind_speed_mps=(wind, wind), camera_speed_mps=(speed, speed))
+    sc = cfg.sample_scenario(seed)
+    data = generate_sequence(sc, cfg)
+    est = DispersionAltimeter(dispersion="gravity")
+    res = est.estimate(data.clean, fps=cfg.fps, focal_px=cfg.focal_px)
+    assert res.quality >= 0.3
+    assert abs(res.altitude_m - h) / h < 0.02
+    assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m
+    assert np.allclose(res.velocity_mps, [-v for v in sc.camera_velocity_mps], atol=0.05)
+    res = est.estimate(data.glinty, fps=cfg.fps, focal_px=cfg.focal_px)
+    assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m or res.quality < 0.3
+
+
 def test_gain_offset_invariance_and_gray_rgb() -> None:
     frames, focal_px, _ = _linear_frames(3.0, 7.0, 0.3, 30.0)
     est = DispersionAltimeter(dispersion="gravity")
@@ -145,6 +164,16 @@ def test_series_windows(tmp_path) -> None:
     for name in ("altitude.csv", "altitude.json", "altitude.png"):
         assert (tmp_path / name).is_file()
     assert len((tmp_path / "altitude.csv").read_text().splitlines()) == 4
+
+
+def test_series_default_window_one_second_blind_ten_frames_aided() -> None:
+    frames, focal_px, _ = _linear_frames(3.0, 7.0, 0.0, 0.0)
+    long = np.concatenate([frames, frames[::-1]] * 2)  # 40 frames
+    _, rows = altitude_series(long, fps=20.0, focal_px=focal_px, dispersion="gravity")
+    assert [(r["start_frame"], r["stop_frame"]) for r in rows] == [(0, 20), (10, 30), (20, 40)]
+    _, rows = altitude_series(long, fps=20.0, focal_px=focal_px, dispersion="gravity",
+                              velocity_mps=(0.0, 0.0))
+    assert {r["stop_frame"] - r["start_frame"] for r in rows} == {10} and len(rows) == 7
 
 
 def _foamy_frames(n_blobs: int, radius_px: float) -> tuple[np.ndarray, float, object, object]:

@@ -217,8 +217,9 @@ def reproduce(out: Path, scale: str) -> None:
 @click.option("--fps", type=float, required=True, help="Frame rate of INPUT, frames/s.")
 @click.option("--focal-px", type=float, default=None, help="Focal length in pixels.")
 @click.option("--fov-deg", type=float, default=None, help="Horizontal field of view, degrees.")
-@click.option("--window", type=int, default=10, show_default=True,
-              help="Frames per estimate; longer inputs are cut into sliding windows.")
+@click.option("--window", type=int, default=None,
+              help="Frames per estimate; longer inputs are cut into sliding windows "
+                   "[10 with --velocity-mps, else 1 s of frames, at least 10].")
 @click.option("--step", type=int, default=None, help="Frames between windows [window/2].")
 @click.option("--dispersion", type=click.Choice(["gravity-capillary", "gravity"]),
               default="gravity-capillary", show_default=True,
@@ -230,7 +231,7 @@ def reproduce(out: Path, scale: str) -> None:
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: float | None,
-             window: int, step: int | None, dispersion: str, velocity_mps: str | None,
+             window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
              as_json: bool,
              out: Path | None) -> None:
     """Altitude from a folder of frames or a video file, by the wave dispersion relation."""

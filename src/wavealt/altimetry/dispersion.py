@@ -13,19 +13,25 @@ with ``s = +1`` for a wave travelling along ``+kappa`` and ``-1`` against it, an
 ``omega = a sqrt(|kappa|)`` with ``a^2 = g focal_px / altitude_m`` (Spencer, Shah & Guha,
 IEEE TIP 2006, recovered image scale this way).
 
-The estimator measures ``psi`` for every spatial mode from the cross-spectrum of the
-spatial FFTs of consecutive frames, summed over frame pairs (robust where a 3-D FFT over
-10 frames has far too coarse a frequency resolution), weights each mode by the phase
-precision its coherence implies, and fits ``altitude_m`` and ``u`` robustly:
+The estimator tabulates, for every spatial mode, the share of its temporal energy that one
+travelling wave explains as a function of the phase step per frame (a whitened, sharpened
+periodogram of the mode's complex amplitudes over the clip), and scores a candidate
+``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts:
 
-1. a search over the image velocity on low-wavenumber modes (where nothing wraps), the
-   altitude and each mode's direction ``s`` solved in closed form for each candidate;
-2. Gauss–Newton with Tukey weights on ``(log altitude, u)``, adding higher wavenumbers
-   band by band and unwrapping their phases against the current model.
+* **aided** (the camera's velocity over the water known, e.g. from satellite navigation):
+  a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;
+* **blind** (velocity unknown): a per-mode phase-step fit (cross-spectra of consecutive
+  frames, Gauss–Newton with Tukey weights on ``(log altitude, u)``) gives a start, and the
+  altitude is the most prominent peak of the score's *profile* over log altitude, the
+  velocity re-fitted at every altitude.  The phase-step fit alone is exact on imagery
+  linear in slope but biased on rendered frames, whose non-linear optics (Fresnel, glint)
+  add difference-frequency products that move slower than the waves; the profile needs a
+  clip long enough to resolve them (about 1 s).
 
-Harmonics of the non-linear rendering (``2k`` at ``2 omega``, off the shell by sqrt(2)),
-difference-frequency energy and glint are outliers to that fit; glint is first clipped
-(per-pixel spikes far above the sequence's robust spread).
+Quality is the relative prominence of the peak (textures without dispersion make no
+prominent peak); the uncertainty is the spread of the peak over groups of modes plus a
+systematic floor, inflated when the quality is low.  Glint is first clipped (per-pixel
+spikes far above the sequence's robust spread), or removed with the colour (chroma) signal.
 """
 
 from __future__ import annotations
@@ -185,8 +191,8 @@ class DispersionAltimeter:
         Threshold of the glint clip of the luminance and of the outlier clip of the chroma
         signal (foam, saturated glint), in robust standard deviations.
     max_modes : int
-        Most spatial modes entering the fit (blind: the most coherent-energy ones; aided: a
-        fixed, even subsample of the plane).
+        Most spatial modes entering the fit (phase-step start: the most coherent-energy
+        ones; periodogram: a fixed, even subsample of the plane).
     min_kappa_bins : float
         Lowest radial wavenumber used, in FFT bins (lower ones carry the window's leakage
         and the illumination's slow gradients).
@@ -198,8 +204,22 @@ class DispersionAltimeter:
         Altitudes the fit may return, metres (the tool is made for 1-15 m; a wider range lets
         slow, nearly static image content pose as a very high camera).
     tiles : {"quadrants", "full"}
-        Spectral analysis on the four image quadrants (summed cross-spectra), or on the
-        whole frame.  Quadrants avoid the bias of the view-tilt modulation of real optics.
+        Cross-spectra of the blind start on the four image quadrants (summed), or on the
+        whole frame.
+    signal : {"auto", "chroma", "luma"}
+        Scalar sequence analysed (:meth:`_signal`).
+    chroma_min_share : float
+        ``"auto"`` takes the chroma signal when it carries at least this share of the
+        (glint-clipped) luminance's temporal variance.
+    n_psi : int, optional
+        Phase steps tabulated by the periodogram; default: enough to resolve its peak
+        (``2 pi / T`` wide) with about six steps, at least 64.
+    n_scan : int
+        Points of the aided altitude scan over ``altitude_range_m``.
+    n_groups : int
+        Mode groups whose spread gives the uncertainty.
+    sharpness : float
+        Exponent applied to every mode's explained share (:meth:`_periodogram`).
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
@@ -804,8 +824,9 @@ class DispersionAltimeter:
 
     def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
                 focal_px: float) -> DispersionResult:
-        """Uncertainty from the spread of the peak over groups of modes (velocity held);
-        quality from the peak's prominence in the altitude scan."""
+        """Uncertainty from the spread of the peak over groups of modes (the velocity held,
+        or along the ridge when it is free); quality from the peak's prominence in the
+        altitude scan or profile."""
         logh, u = fit["logh"], fit["u"]
         vals, local = fit["vals"], fit["local"]
         n = vals.shape[1]
@@ -853,15 +874,18 @@ def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                                               velocity_mps=velocity_mps)
 
 
-def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int = 10,
+def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int | None = None,
                     step: int | None = None, out: Any = None, progress: bool = False,
                     velocity_mps: tuple[float, float] | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
 
-    A sequence of at most ``window`` frames gives one estimate.  The summary holds the
-    quality-weighted median altitude of the windows (its spread as ``altitude_std_m``),
-    the median velocity, the total ``frames``, the mean ``quality`` and the ``windows``.
+    A sequence of at most ``window`` frames gives one estimate.  The default window is 10
+    frames with ``velocity_mps`` known, else one second of frames (at least 10): the blind
+    fit needs about a second to separate the waves from the optics' slower products.  The
+    summary holds the quality-weighted median altitude of the windows (its spread as
+    ``altitude_std_m``), the median velocity, the total ``frames``, the mean ``quality``
+    and the ``windows``.
     With ``out`` (a folder), writes ``altitude.csv``, ``altitude.json`` and
     ``altitude.png`` (altitude over time).
     """
@@ -872,6 +896,9 @@ def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: 
     from wavealt.video import sliding_windows
 
     arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    if window is None:
+        fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+        window = 10 if velocity_mps is not None else max(10, round(fps))
     est = DispersionAltimeter(**kw)
     rows: list[dict[str, Any]] = []
     ranges = list(sliding_windows(arr.shape[0], window=window, step=step))

@@ -36,6 +36,7 @@ spikes far above the sequence's robust spread), or removed with the colour (chro
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -112,9 +113,18 @@ def _to_gray(frames: np.ndarray) -> np.ndarray:
     return frames.astype(np.float32) * scale
 
 
+@functools.lru_cache(maxsize=8)
 def _hann2d(h: int, w: int) -> np.ndarray:
-    """Separable Hann window ``(h, w)`` float32, zero-free (spectral leakage of a clip)."""
-    return (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+    """Separable Hann window ``(h, w)`` float32, zero-free (spectral leakage of a clip);
+    cached, read-only."""
+    win = (np.hanning(h + 2)[1:-1, None] * np.hanning(w + 2)[None, 1:-1]).astype(np.float32)
+    win.flags.writeable = False
+    return win
+
+
+def _has_texture(arr: np.ndarray) -> bool:
+    """Whether ``arr`` holds more than one value (beyond float rounding)."""
+    return float(np.ptp(arr)) > (0 if arr.dtype == np.uint8 else 1e-6)
 
 
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
@@ -137,8 +147,10 @@ def _robust_level(x: np.ndarray, n_sample: int) -> tuple[float, float]:
     return med, float(np.median(np.abs(sample - med))) * 1.4826
 
 
-def _clip_outliers(signal: np.ndarray, n_sigma: float) -> np.ndarray:
-    """Clip ``signal`` to its robust ``median +- n_sigma`` spread, both ways.
+def _clip_outliers(signal: np.ndarray, n_sigma: float,
+                   level: tuple[float, float] | None = None) -> np.ndarray:
+    """Clip ``signal`` to its robust ``median +- n_sigma`` spread, both ways, in place
+    (``level``: that median and spread, when already measured).
 
     In the chroma signal the water's colour varies smoothly with the waves; whitecaps (white
     foam carried along by the water, not dispersive) and saturated glint (all channels at
@@ -147,12 +159,10 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float) -> np.ndarray:
     glinty 14.8 -> 4.4 %; on 16 realistic clean scenes, confident (quality > 0.5) errors
     above 10 % fell from 5 to 1.
     """
-    med, mad = _robust_level(signal, 16_384)
+    med, mad = _robust_level(signal, 4_096) if level is None else level
     if mad <= 0:
         return signal
-    # in place: ``signal`` is the chroma projection, made for this call alone
-    np.maximum(signal, med - n_sigma * mad, out=signal)
-    return np.minimum(signal, med + n_sigma * mad, out=signal)
+    return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad, out=signal)
 
 
 def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) -> np.ndarray:
@@ -167,7 +177,7 @@ def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) 
     if method == "none":
         return gray
     if method == "clip":
-        med, mad = _robust_level(gray, 65_536)
+        med, mad = _robust_level(gray, 16_384)
         return np.minimum(gray, med + clip_sigma * mad)
     med_t = np.median(gray, axis=0, keepdims=True)
     mad = float(np.median(np.abs(gray - med_t))) * 1.4826
@@ -493,28 +503,33 @@ class DispersionAltimeter:
         if self.signal == "luma" or arr.ndim == 3:
             return deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma), "luma"
         x = arr.reshape(-1, 3)
-        sample = x[:: max(1, x.shape[0] // 30_000)].astype(np.float64)
+        sample = x[:: max(1, x.shape[0] // 4_096)].astype(np.float64)
         if arr.dtype == np.uint8:
             sample /= 255.0
         y = sample - sample.mean(axis=1, keepdims=True)
-        _, vecs = np.linalg.eigh(np.cov(y.T))
+        y -= y.mean(axis=0)
+        _, vecs = np.linalg.eigh(y.T @ y)
         # (x - mean_c(x)) . v  ==  x . (v - mean(v)): one weighted sum over the channels
         w = vecs[:, -1] - vecs[:, -1].mean()
         scale = 1.0 / 255.0 if arr.dtype == np.uint8 else 1.0
-        chroma = _clip_outliers((arr @ (w * scale).astype(np.float32)).astype(np.float32),
-                                self.clip_sigma)
-        if self.signal == "chroma":
-            return chroma, "chroma"
-        # compare with the luminance once its glint is clipped (glint inflates the raw
-        # luminance variance and would hide a perfectly usable chroma texture), on every
-        # 6th pixel both ways: the full luminance is made only when it is the signal
-        luma_sub = deglint(_to_gray(arr[:, ::6, ::6]), method=self.deglint,
-                           clip_sigma=self.clip_sigma)
-        var_c = float(np.mean(np.var(chroma[:, ::6, ::6], axis=0)))
-        var_l = float(np.mean(np.var(luma_sub, axis=0)))
-        if var_l > 0 and var_c >= self.chroma_min_share * var_l:
-            return chroma, "chroma"
-        return deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma), "luma"
+        wf = (w * scale).astype(np.float32)
+        # Decided on every 6th pixel both ways (the full projection is made only for the
+        # signal analysed): the chroma's outlier clip levels, and its variance against the
+        # luminance's once that is glint-clipped (glint inflates the raw luminance variance
+        # and would hide a perfectly usable chroma texture).
+        sub = arr[:, ::6, ::6]
+        chroma_sub = (sub @ wf).astype(np.float32, copy=False)
+        med, mad = _robust_level(chroma_sub, 4_096)
+        if self.signal == "auto":
+            luma_sub = deglint(_to_gray(sub), method=self.deglint, clip_sigma=self.clip_sigma)
+            var_c = float(np.mean(np.var(_clip_outliers(chroma_sub, self.clip_sigma, (med, mad)),
+                                         axis=0)))
+            var_l = float(np.mean(np.var(luma_sub, axis=0)))
+            if not (var_l > 0 and var_c >= self.chroma_min_share * var_l):
+                return deglint(_to_gray(arr), method=self.deglint,
+                               clip_sigma=self.clip_sigma), "luma"
+        chroma = (arr @ wf).astype(np.float32, copy=False)
+        return _clip_outliers(chroma, self.clip_sigma, (med, mad)), "chroma"
 
     # -- whitened periodogram ----------------------------------------------------------------
     def _periodogram(self, signal: np.ndarray) -> dict[str, np.ndarray]:
@@ -531,37 +546,47 @@ class DispersionAltimeter:
         """
         t, h, w = signal.shape
         kx, ky, kappa, _, idx = self._plane(h, w)
-        f = scipy.fft.rfft2(signal * _hann2d(h, w), axes=(1, 2), workers=1)
-        xs = f.reshape(t, -1)[:, idx].T.astype(np.complex64)  # (modes, T)
+        f = scipy.fft.rfft2(signal * _hann2d(h, w), axes=(1, 2), workers=1).reshape(t, -1)
+        g = f[:, idx]  # (T, modes)
+        xr, xi = np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag)
         # the temporal mean of every pixel, removed where it is cheap: per selected mode
-        xs -= xs.mean(axis=1, keepdims=True)
-        energy = np.einsum("mt,mt->m", xs.real, xs.real) + np.einsum("mt,mt->m", xs.imag,
-                                                                      xs.imag)
+        xr -= xr.mean(axis=0)
+        xi -= xi.mean(axis=0)
+        energy = np.einsum("tm,tm->m", xr, xr) + np.einsum("tm,tm->m", xi, xi)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
-        idx, xs, energy = idx[keep], xs[keep], energy[keep]
+        if not keep.all():
+            idx, xr, xi, energy = idx[keep], xr[:, keep], xi[:, keep], energy[keep]
         # the table must resolve the periodogram's peak, 2 pi / T wide: >= ~6 steps per width
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
-        # sum_t X_t e^{+i psi_j t} for every mode and table step: one small matrix product
-        # (T is short, so this beats an n_psi-point FFT per mode)
-        z = xs @ np.exp(1j * np.outer(np.arange(t), psi)).astype(np.complex64)
+        # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step, as real matrix
+        # products (T is short, so this beats an n_psi-point FFT per mode)
+        arg = np.outer(np.arange(t), psi)
+        cos, sin = np.cos(arg).astype(np.float32), np.sin(arg).astype(np.float32)
+        zr = xr.T @ cos
+        zr -= xi.T @ sin
+        zi = xr.T @ sin
+        zi += xi.T @ cos
         dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
         denom = np.maximum(t - dirichlet / t, 1e-9)
-        # explained share |z|^2 / D(psi) / E, into a table with one wrap column
-        q = np.empty((idx.size, n_psi + 1), dtype=np.float32)
-        zr, zi = z.real, z.imag
-        np.multiply(zr, zr, out=q[:, :n_psi])
-        q[:, :n_psi] += zi * zi
-        q[:, :n_psi] *= (1.0 / denom).astype(np.float32)[None, :]
-        q[:, :n_psi] *= (1.0 / energy).astype(np.float32)[:, None]
-        q[:, :n_psi][:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
+        # explained share |z|^2 / D(psi) / E
+        share = zr
+        share *= zr
+        zi *= zi
+        share += zi
+        share *= (1.0 / denom).astype(np.float32)[None, :]
+        share *= (1.0 / energy).astype(np.float32)[:, None]
+        share[:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
         # Sharpen: a mode counts in proportion to (explained share)^sharpness, so modes that
         # one travelling wave explains almost wholly dominate, and modes that mix the wave
         # with the rendering's non-linear products (harmonics, sum and difference
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
-        q[:, :n_psi] = _sharpen(q[:, :n_psi], self.sharpness)
-        q[:, n_psi] = q[:, 0]  # wrap for interpolation
+        share = _sharpen(share, self.sharpness)
+        # the table, with one wrap column for interpolation
+        q = np.empty((idx.size, n_psi + 1), dtype=np.float32)
+        q[:, :n_psi] = share
+        q[:, n_psi] = share[:, 0]
         return {"q": q, "kx": kx[idx], "ky": ky[idx], "kappa": kappa[idx]}
 
     def _plane(self, h: int, w: int) -> tuple[np.ndarray, ...]:
@@ -669,7 +694,9 @@ class DispersionAltimeter:
         if min(h, w) < 16:
             msg = f"frames must be at least 16x16 px; got {h}x{w}"
             raise ValueError(msg)
-        if float(np.ptp(arr)) <= (0 if arr.dtype == np.uint8 else 1e-6):
+        # flat input: decided on a subsample when that shows texture (nearly always), else
+        # on every pixel
+        if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
         signal, _ = self._signal(arr)
@@ -729,7 +756,7 @@ class DispersionAltimeter:
         step = (hi - lo) / (self.n_scan - 1)
         grid = np.arange(lo - math.log(1.5), hi + math.log(4.0) + step / 2, step)
         # the coarse scan needs no more than a fixed subsample of the modes
-        sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 500))
+        sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 300))
         scan = self._score(p, fps, focal_px, grid, *u_of(grid), modes=sub)
         peaks, props = find_peaks(scan, prominence=0.0)
         if peaks.size:
@@ -738,7 +765,7 @@ class DispersionAltimeter:
             interior = bool(lo - step <= grid[i] <= hi + step)
         else:  # the scan rises to an edge: no altitude fits
             i, prominence, interior = int(np.argmax(scan)), 0.0, False
-        local = grid[i] + np.linspace(-1.2, 1.2, 21) * step
+        local = grid[i] + np.linspace(-1.2, 1.2, 11) * step
         vals = self._mode_values(p, fps, focal_px, local, *u_of(local))
         mean = vals.mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))

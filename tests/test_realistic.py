@@ -61,13 +61,25 @@ def test_spectrum_has_a_peak_and_a_gravity_capillary_end(fn):
     assert curvature[-1] < 1e-6 * curvature[cap].max()
 
 
+@pytest.mark.parametrize("u", [0.5, 1.0, 1.6, 2.0, 2.5, 2.8])
+def test_light_wind_spectrum_is_a_density(u):
+    """Elfouhaily's capillary-range fit turns negative below U10 ~ 2.8 m/s; the spectrum
+    (and the amplitudes drawn from its square root) must not."""
+    k = np.geomspace(1e-2, K_MAX_RADPM, 4000)
+    f = elfouhaily_omni(k, wind_speed_mps=u)
+    assert np.all(np.isfinite(f)) and np.all(f >= 0)
+    sea = RealisticSea(SeaSpectrum(wind_speed_mps=u), n=64, dx_m=0.02, rng=0)
+    assert np.all(np.isfinite(sea.a)) and np.all(np.isfinite(sea.b))
+
+
 def test_spectrum_scaled_to_cox_munk_total_slope():
     for u in (2.0, 6.0, 12.0):
         sp = SeaSpectrum(wind_speed_mps=u)
         total = sp.slope_variance_between(sp.k_peak / 20.0, K_MAX_RADPM)
         assert total == pytest.approx(float(cox_munk_slope_variance(u)), rel=1e-9)
-        # Elfouhaily's own level is within a factor 1.5 of Cox-Munk's
-        assert 0.67 < sp.level < 1.5
+        # Elfouhaily's own level is within a factor 1.6 of Cox-Munk's (at 2 m/s its capillary
+        # range is empty and its gravity range alone is 1.54 times Cox-Munk's slope)
+        assert 0.62 < sp.level < 1.5
 
 
 @pytest.mark.parametrize("s", [0.0, 1.0, 4.0, 15.0])

@@ -89,9 +89,11 @@ def _check_wind(wind_speed_mps: float, inverse_wave_age: float) -> tuple[float, 
 def _capillary_curvature(k: np.ndarray, wind_speed_mps: float, l_pm_jp: np.ndarray) -> np.ndarray:
     """Short-wave curvature ``B_h`` of Elfouhaily et al. (1997), eqs. (40)-(44)."""
     u_star = friction_velocity(wind_speed_mps)
-    # eq. (44): generalised Phillips-Kitaigorodskii equilibrium range parameter
-    alpha_m = 1e-2 * (1.0 + (math.log(u_star / C_M_MPS) if u_star <= C_M_MPS
-                             else 3.0 * math.log(u_star / C_M_MPS)))
+    # eq. (44): generalised Phillips-Kitaigorodskii equilibrium range parameter; below
+    # u* = c_m / e (U10 ~ 2.8 m/s) the fit turns negative, a negative spectral density (NaN
+    # amplitudes): in so light a wind the capillary range holds nothing
+    alpha_m = 1e-2 * max(0.0, 1.0 + (math.log(u_star / C_M_MPS) if u_star <= C_M_MPS
+                                     else 3.0 * math.log(u_star / C_M_MPS)))
     f_m = l_pm_jp * np.exp(-0.25 * (k / K_M_RADPM - 1.0) ** 2)  # eq. (41)
     return 0.5 * alpha_m * C_M_MPS / phase_speed(k) * f_m
 

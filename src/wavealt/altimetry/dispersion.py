@@ -664,8 +664,9 @@ class DispersionAltimeter:
         With ``velocity_mps`` (the camera's velocity over the water along image +x and +y,
         m/s, e.g. from satellite navigation over still water; ``(0, 0)`` for a hovering
         camera) only the altitude is searched ("aided").  Without it the velocity is searched
-        too ("blind"); on strongly non-linear imagery of a sea whose waves all travel one way,
-        drift and altitude then trade off, which the quality and uncertainty report.
+        too ("blind"): on imagery that is a strongly non-linear function of slope (Fresnel,
+        glint) that needs about a second of frames; a shorter clip leaves drift and altitude
+        trading off, which the quality and uncertainty report.
 
         Parameters
         ----------

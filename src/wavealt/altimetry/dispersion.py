@@ -216,8 +216,13 @@ class DispersionAltimeter:
     tiles : {"quadrants", "full"}
         Cross-spectra of the blind start on the four image quadrants (summed), or on the
         whole frame.
-    signal : {"auto", "chroma", "luma"}
-        Scalar sequence analysed (:meth:`_signal`).
+    signal : {"luma", "chroma", "auto"}
+        Scalar sequence analysed (:meth:`_signal`).  The luminance (glint-clipped) is the
+        default: on the realistic preset the chroma carries colour content that does not
+        follow the waves (aided relative MAE 94 % clean, 18 % glinty against 0.4 % and 0.3 %
+        with the luminance, 16 scenes), and on the paper preset the two tie.  The chroma
+        removes white content outright: it keeps a fit on the waves through white foam
+        covering a few per cent of the frame, where the luminance's clip does not.
     chroma_min_share : float
         ``"auto"`` takes the chroma signal when it carries at least this share of the
         (glint-clipped) luminance's temporal variance.
@@ -236,7 +241,7 @@ class DispersionAltimeter:
                  clip_sigma: float = 3.0, max_modes: int = 4000, min_kappa_bins: float = 2.5,
                  max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
                  altitude_range_m: tuple[float, float] = (0.5, 20.0),
-                 tiles: str = "full", signal: str = "auto", chroma_min_share: float = 0.05,
+                 tiles: str = "full", signal: str = "luma", chroma_min_share: float = 0.05,
                  n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
                  sharpness: float = 5.0) -> None:
         check_choice("signal", signal, SIGNALS)

@@ -57,7 +57,8 @@ SD_FLOOR_LOG = 0.01
 TRUSTED_QUALITY = 0.3
 #: Largest phase-step misfit (chi^2 per mode against the coherence-predicted phase noise)
 #: of a blind phase-step fit that may stand in for an indecisive profile: 0.6-2.2 on frames
-#: linear in slope, 2.6-10 on the paper renderer's frames (14 + 16 scenes, 10 and 30 frames).
+#: linear in slope (8 windows), 2.6-10 on the paper renderer's (24 windows of 10 and 30
+#: frames).
 PHASE_STEP_CHI2 = 2.0
 MIN_FRAMES = 3
 
@@ -747,8 +748,6 @@ class DispersionAltimeter:
         grid around it, evaluated once per mode, gives both the estimate (parabolic peak of
         the mean) and its spread over mode groups (:meth:`_result`).
         """
-        from scipy.signal import find_peaks
-
         vx, vy = (float(v) for v in velocity_mps)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
 
@@ -764,13 +763,7 @@ class DispersionAltimeter:
         # the coarse scan needs no more than a fixed subsample of the modes
         sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 300))
         scan = self._score(p, fps, focal_px, grid, *u_of(grid), modes=sub)
-        peaks, props = find_peaks(scan, prominence=0.0)
-        if peaks.size:
-            k = int(np.argmax(props["prominences"]))
-            i, prominence = int(peaks[k]), float(props["prominences"][k])
-            interior = bool(lo - step <= grid[i] <= hi + step)
-        else:  # the scan rises to an edge: no altitude fits
-            i, prominence, interior = int(np.argmax(scan)), 0.0, False
+        i, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step)
         local = grid[i] + np.linspace(-1.2, 1.2, 11) * step
         vals = self._mode_values(p, fps, focal_px, local, *u_of(local))
         mean = vals.mean(axis=1)
@@ -815,8 +808,6 @@ class DispersionAltimeter:
         over ``x1/2.2 .. x1.5`` of its altitude (its bias is upward); the most prominent
         peak is refined on all modes like the aided fit.
         """
-        from scipy.signal import find_peaks
-
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = 0.05
         grid = logh0 + np.arange(-0.8, 0.4 + step / 2, step)
@@ -830,13 +821,7 @@ class DispersionAltimeter:
             for j in order:  # continuation along the ridge
                 scan[j], u = self._best_velocity(p, fps, focal_px, float(grid[j]), u, sub, 0.02)
                 path[j] = u
-        peaks, props = find_peaks(scan, prominence=0.0)
-        if peaks.size:
-            k = int(np.argmax(props["prominences"]))
-            i, prominence = int(peaks[k]), float(props["prominences"][k])
-            interior = bool(lo - step <= grid[i] <= hi + step)
-        else:  # the profile rises to an end of the span: nothing pins the altitude
-            i, prominence, interior = int(np.argmax(scan)), 0.0, False
+        i, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
         us = np.empty((local.size, 2))
         for j, lg in enumerate(local):
@@ -888,6 +873,21 @@ class DispersionAltimeter:
         vel = (float(-u[0] * fps * alt / focal_px), float(-u[1] * fps * alt / focal_px))
         return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
                                 velocity_mps=vel, quality=q, frames=int(t), n_modes=int(n))
+
+
+def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float,
+                    hi: float) -> tuple[int, float, bool]:
+    """Index of the most prominent peak of ``scan`` over ``grid``, its prominence, and
+    whether it lies within ``[lo, hi]``; ``(argmax, 0, False)`` when the scan has no peak
+    (it rises to an end: nothing there pins the altitude)."""
+    from scipy.signal import find_peaks
+
+    peaks, props = find_peaks(scan, prominence=0.0)
+    if not peaks.size:
+        return int(np.argmax(scan)), 0.0, False
+    k = int(np.argmax(props["prominences"]))
+    i = int(peaks[k])
+    return i, float(props["prominences"][k]), bool(lo <= grid[i] <= hi)
 
 
 def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:

@@ -769,9 +769,8 @@ class DispersionAltimeter:
         mean = vals.mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
         ux, uy = u_of(np.array([logh]))
-        return {"logh": logh, "u": np.array([ux[0], uy[0]]), "score": float(mean.max()),
-                "scan": scan, "grid": grid, "interior": interior,
-                "prominence": prominence, "local": local, "vals": vals}
+        return {"logh": logh, "u": np.array([ux[0], uy[0]]), "scan": scan,
+                "interior": interior, "prominence": prominence, "local": local, "vals": vals}
 
     def _best_velocity(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                        logh: float, u: np.ndarray, modes: np.ndarray | None, step: float,
@@ -831,8 +830,8 @@ class DispersionAltimeter:
         mean = vals.mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
         u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
-        return {"logh": logh, "u": u, "score": float(mean.max()), "scan": scan, "grid": grid,
-                "interior": interior, "prominence": prominence, "local": local, "vals": vals}
+        return {"logh": logh, "u": u, "scan": scan, "interior": interior,
+                "prominence": prominence, "local": local, "vals": vals}
 
     def _failed(self, frames: int) -> DispersionResult:
         lo, hi = self.altitude_range_m

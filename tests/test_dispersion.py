@@ -182,12 +182,15 @@ def test_series_windows(tmp_path) -> None:
     assert len((tmp_path / "altitude.csv").read_text().splitlines()) == 4
 
 
-def test_series_default_window_one_second_blind_ten_frames_aided() -> None:
+def test_series_default_window_is_one_second_at_least_ten_frames() -> None:
     frames, focal_px, _ = _linear_frames(3.0, 7.0, 0.0, 0.0)
     long = np.concatenate([frames, frames[::-1]] * 2)  # 40 frames
-    _, rows = altitude_series(long, fps=20.0, focal_px=focal_px, dispersion="gravity")
-    assert [(r["start_frame"], r["stop_frame"]) for r in rows] == [(0, 20), (10, 30), (20, 40)]
-    _, rows = altitude_series(long, fps=20.0, focal_px=focal_px, dispersion="gravity",
+    for velocity in (None, (0.0, 0.0)):
+        _, rows = altitude_series(long, fps=20.0, focal_px=focal_px, dispersion="gravity",
+                                  velocity_mps=velocity)
+        assert [(r["start_frame"], r["stop_frame"]) for r in rows] == [(0, 20), (10, 30),
+                                                                        (20, 40)]
+    _, rows = altitude_series(long, fps=8.0, focal_px=focal_px, dispersion="gravity",
                               velocity_mps=(0.0, 0.0))
     assert {r["stop_frame"] - r["start_frame"] for r in rows} == {10} and len(rows) == 7
 

@@ -219,7 +219,7 @@ def reproduce(out: Path, scale: str) -> None:
 @click.option("--fov-deg", type=float, default=None, help="Horizontal field of view, degrees.")
 @click.option("--window", type=int, default=None,
               help="Frames per estimate; longer inputs are cut into sliding windows "
-                   "[10 with --velocity-mps, else 1 s of frames, at least 10].")
+                   "[1 s of frames, at least 10].")
 @click.option("--step", type=int, default=None, help="Frames between windows [window/2].")
 @click.option("--dispersion", type=click.Choice(["gravity-capillary", "gravity"]),
               default="gravity-capillary", show_default=True,

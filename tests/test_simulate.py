@@ -173,3 +173,26 @@ def test_read_frames_errors(tmp_path):
     (tmp_path / "bad" / "frame_000.png").write_bytes(b"not a png")
     with pytest.raises(ValueError, match="cannot read image"):
         read_frames_folder(tmp_path / "bad")
+
+
+def test_non_finite_render_is_refused_and_earlier_sequences_kept(tmp_path, monkeypatch):
+    import wavealt.simulate as sim
+
+    real = sim.render_pair
+    calls = {"n": 0}
+
+    def nan_on_third(*args, **kw):
+        clean, glinty = real(*args, **kw)
+        calls["n"] += 1
+        if calls["n"] == 3:
+            clean = clean.copy()
+            clean[1, 5, 7, 0] = np.nan
+        return clean, glinty
+
+    monkeypatch.setattr(sim, "render_pair", nan_on_third)
+    cfg = preset_config("paper", **SMALL)
+    with pytest.raises(ValueError, match=r"made 1 non-finite clean frame\(s\) for altitude"):
+        simulate_dataset(tmp_path / "ds", cfg, progress=False)
+    done = sorted(p.name for p in (tmp_path / "ds" / "clean").iterdir() if p.is_dir())
+    assert done == ["seq_00000", "seq_00001"]
+    assert not (tmp_path / "ds" / "glinty" / "seq_00002").exists()

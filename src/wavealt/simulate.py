@@ -61,11 +61,31 @@ def make_surface(scenario: Scenario, size: int, pad: float) -> OceanSurface:
 
 def generate_sequence(scenario: Scenario, config: SimConfig, *,
                       with_height: bool = False) -> SequenceData:
-    """Synthesise and render the paired clean/glinty frames of ``scenario``."""
+    """Synthesise and render the paired clean/glinty frames of ``scenario``.
+
+    Raises ``ValueError`` if a rendered frame is not finite (a scenario outside the range
+    the spectrum models hold for), rather than writing blank or NaN frames.
+    """
     if config.renderer == "realistic":
         from wavealt.realistic_sim import generate_realistic_sequence
 
-        return generate_realistic_sequence(scenario, config, with_height=with_height)
+        data = generate_realistic_sequence(scenario, config, with_height=with_height)
+    else:
+        data = _generate_paper_sequence(scenario, config, with_height=with_height)
+    for name in ("clean", "glinty"):
+        frames = getattr(data, name)
+        if not np.isfinite(frames).all():
+            bad = int(np.count_nonzero((~np.isfinite(frames)).reshape(frames.shape[0], -1)
+                                       .any(axis=1)))
+            msg = (f"the {config.renderer} renderer made {bad} non-finite {name} frame(s) for "
+                   f"altitude {scenario.altitude_m:.3g} m, wind {scenario.wind_speed_mps:.3g} m/s "
+                   f"(seed {scenario.seed})")
+            raise ValueError(msg)
+    return data
+
+
+def _generate_paper_sequence(scenario: Scenario, config: SimConfig, *,
+                             with_height: bool = False) -> SequenceData:
     size = int(config.size)
     surf = make_surface(scenario, size, config.domain_pad)
     times = np.arange(scenario.frames) / scenario.fps

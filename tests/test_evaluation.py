@@ -126,3 +126,34 @@ def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
     for bad in ("dispersion:water", "dispersion-aided:x"):
         with pytest.raises(ValueError, match=f"unknown estimator '{bad}'"):
             parse_estimator(bad)
+
+
+def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> None:
+    from wavealt.evaluation import DispersionEstimator
+
+    est = DispersionEstimator(aided=True)
+    res = evaluate(tiny_dataset, est, conditions=["clean", "glinty"], out=tmp_path,
+                   progress=False, figures=False)
+    ds = Dataset(tiny_dataset)
+    truth = np.array([r.altitude_m for r in ds.split("test")])
+    with (tmp_path / "predictions.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for c in ("clean", "glinty"):
+        m = res.metrics[c]
+        q = res.predictions[c]["quality"]
+        assert q.shape == truth.shape and np.all((q >= 0) & (q <= 1))
+        trusted = q >= 0.3
+        assert m["flagged"] == int(np.sum(~trusted))
+        assert m["trusted"]["n"] == int(np.sum(trusted)) == len(truth) - m["flagged"]
+        if trusted.any():
+            err = np.abs(res.predictions[c]["pred_m"][trusted] - truth[trusted])
+            assert m["trusted"]["mae_m"] == pytest.approx(err.mean(), abs=1e-12)
+        # the quality on disk is the one graded
+        on_disk = np.array([float(r["quality"]) for r in rows if r["condition"] == c])
+        np.testing.assert_allclose(on_disk, q, atol=5e-4)
+    on_disk = json.loads((tmp_path / "metrics.json").read_text())
+    assert set(on_disk["clean"]["trusted"]) == set(METRIC_KEYS)
+    table = (tmp_path / "table.md").read_text()
+    assert "The sequences it trusts (quality ≥ 0.3" in table
+    flagged = res.metrics["clean"]["flagged"]
+    assert f"| Clean | {flagged} of {len(truth)} |" in table

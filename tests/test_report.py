@@ -83,6 +83,30 @@ def test_side_by_side_lists_every_method_and_condition_and_judges_the_baseline()
     assert not any(line.startswith("- constant") for line in verdict.splitlines())
 
 
+def test_side_by_side_adds_a_trusted_only_row_for_self_grading_methods() -> None:
+    from wavealt.report import side_by_side_markdown
+
+    evals = {"dispersion": _ev("dispersion (gravity, blind)", {"clean": 0.8, "glinty": 1.2}),
+             "constant": _ev("constant", {"clean": 1.0, "glinty": 1.0}, label="constant 3 m")}
+    m = evals["dispersion"]["metrics"]
+    m["clean"]["flagged"], m["clean"]["trusted"] = 3, {**_ev("", {"c": 0.05})["metrics"]["c"],
+                                                       "n": 2}
+    m["glinty"]["flagged"], m["glinty"]["trusted"] = 5, {**_ev("", {"c": math.nan})["metrics"]["c"],
+                                                         "n": 0}
+    md = "\n".join(side_by_side_markdown(evals))
+    mae_table = md.split("### Relative MAE")[0]
+    assert ("| dispersion (gravity, blind), trusted only | 0.05 [-0.03] (n=2) | — (n=0) |"
+            in mae_table)
+    assert "| dispersion (gravity, blind) | 0.80 [-0.40] | 1.20 [-0.60] |" in mae_table
+    rel = md.split("### Relative MAE")[1].split("##")[0]
+    assert "| dispersion (gravity, blind), trusted only | 0.5 (n=2) | — (n=0) |" in rel
+    # the verdict against the baseline counts every sequence, flagged or not
+    verdict = md.split("## What beats the constant baseline")[1]
+    assert "- dispersion (gravity, blind): **beats it on Clean (0.80 m)**; not on Glinty (1.20 m)." \
+        in verdict
+    assert "trusted only" not in verdict
+
+
 def test_reproduce_end_to_end_at_a_tiny_scale(tmp_path, monkeypatch) -> None:
     from wavealt.report import ReproduceScale
 
@@ -103,7 +127,8 @@ def test_reproduce_end_to_end_at_a_tiny_scale(tmp_path, monkeypatch) -> None:
     assert len(const) == 1 and rows - const == {
         "| cnn (resnet-tiny, trained on clean)", "| cnn (resnet-tiny, trained on residual)",
         "| cnn (temporal resnet-tiny, trained on clean)", "| dispersion (gravity, blind)",
-        "| dispersion (gravity, velocity known)"}
+        "| dispersion (gravity, blind), trusted only", "| dispersion (gravity, velocity known)",
+        "| dispersion (gravity, velocity known), trusted only"}
     header = next(line for line in md.splitlines() if line.startswith("| Method |"))
     assert header == "| Method | Clean | Glinty | Residual (TMF) | tmf-min |"
     assert "## What beats the constant baseline" in md and "## Deglint quality" in md

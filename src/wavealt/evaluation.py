@@ -38,6 +38,8 @@ from typing import Any, Protocol
 import numpy as np
 from tqdm.auto import tqdm
 
+from wavealt.altimetry.dispersion import TRUSTED_QUALITY
+
 METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m", "rel_mae_pct")
 
 #: The paper's Table 2 (ResNet-50 trained on clean, n = 30 test sequences each).
@@ -174,7 +176,9 @@ class DispersionEstimator:
             self.dispersion = dispersion_of(getattr(dataset, "config", None))
             self.altimeter = self._cls(dispersion=self.dispersion)
 
-    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+    def estimate_with_quality(self, dataset: Any, condition: str,
+                              record: Any) -> tuple[float, float]:
+        """Altitude (m, NaN if it gives up) and the fit's quality in [0, 1]."""
         self.bind(dataset)
         frames = dataset.read_frames(condition, record.sequence_id)
         try:
@@ -183,8 +187,11 @@ class DispersionEstimator:
                                           focal_px=record.scenario.focal_px,
                                           velocity_mps=velocity)
         except ValueError:
-            return math.nan
-        return float(res.altitude_m)
+            return math.nan, 0.0
+        return float(res.altitude_m), float(res.quality)
+
+    def estimate(self, dataset: Any, condition: str, record: Any) -> float:
+        return self.estimate_with_quality(dataset, condition, record)[0]
 
 
 def train_split_mean_m(dataset: Any) -> float:
@@ -278,14 +285,26 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
     preds: dict[str, dict[str, np.ndarray]] = {}
     bar = tqdm(total=len(conds) * len(records), desc=f"evaluate {est.name}", disable=not progress,
                unit="seq")
+    # estimators that grade their own fits (the dispersion altimeter) also get metrics on
+    # the sequences they trust, and the count they flag
+    with_quality = getattr(est, "estimate_with_quality", None)
     for c in conds:
         p = np.empty(len(records))
+        q = np.full(len(records), np.nan)
         for i, r in enumerate(records):
-            p[i] = est.estimate(ds, c, r)
+            if with_quality is not None:
+                p[i], q[i] = with_quality(ds, c, r)
+            else:
+                p[i] = est.estimate(ds, c, r)
             bar.update()
         metrics[c] = altitude_metrics(p, true_m)
         preds[c] = {"sequence_id": np.array([r.sequence_id for r in records]), "true_m": true_m,
                     "pred_m": p}
+        if with_quality is not None:
+            trusted = q >= TRUSTED_QUALITY
+            metrics[c]["flagged"] = int(np.count_nonzero(~trusted))
+            metrics[c]["trusted"] = altitude_metrics(p[trusted], true_m[trusted])
+            preds[c]["quality"] = q
     bar.close()
     base = _baseline_for(est, ds)
     base_metrics = altitude_metrics(np.full(len(records), base.altitude_m), true_m)
@@ -309,10 +328,14 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
 def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["condition", "sequence_id", "altitude_m", "predicted_m", "abs_err_m"])
+    graded = any("quality" in d for d in preds.values())
+    w.writerow(["condition", "sequence_id", "altitude_m", "predicted_m", "abs_err_m"]
+               + (["quality"] if graded else []))
     for c, d in preds.items():
-        for sid, t, p in zip(d["sequence_id"], d["true_m"], d["pred_m"]):
-            w.writerow([c, sid, f"{t:.4f}", f"{p:.4f}", f"{abs(p - t):.4f}"])
+        qs = d.get("quality", np.full(len(d["pred_m"]), np.nan))
+        for sid, t, p, q in zip(d["sequence_id"], d["true_m"], d["pred_m"], qs):
+            row = [c, sid, f"{t:.4f}", f"{p:.4f}", f"{abs(p - t):.4f}"]
+            w.writerow(row + ([f"{q:.3f}" if math.isfinite(q) else ""] if graded else []))
     return buf.getvalue()
 
 
@@ -344,6 +367,17 @@ def table_markdown(result: EvaluationResult) -> str:
         lines.append(f"| Baseline: {result.baseline_label} | {_f(b['mae_m'])} | {_f(b['rmse_m'])} | "
                      f"{_f(b['bias_m'], True)} | {_f(b['max_abs_err_m'])} | "
                      f"{_f(b.get('rel_mae_pct', math.nan), pct=True)} |")
+    graded = {c: v for c, v in m.items() if "trusted" in v}
+    if graded:
+        lines += ["", f"The sequences it trusts (quality ≥ {TRUSTED_QUALITY}; it flags the "
+                  "others itself):", "",
+                  "| Condition | flagged | MAE (m) | Bias (m) | Rel. MAE (%) |",
+                  "|---|---:|---:|---:|---:|"]
+        for c, v in graded.items():
+            t = v["trusted"]
+            lines.append(f"| {CONDITION_LABELS.get(c, c)} | {v['flagged']} of "
+                         f"{v['flagged'] + t['n']} | {_f(t['mae_m'])} | {_f(t['bias_m'], True)} | "
+                         f"{_f(t.get('rel_mae_pct', math.nan), pct=True)} |")
     failed = {c: int(np.sum(~np.isfinite(d["pred_m"]))) for c, d in result.predictions.items()}
     if any(failed.values()):
         lines += ["", "Sequences without an estimate (left out of n): "

@@ -384,6 +384,8 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
          "channels), the physics-based dispersion altimeter (no training; the dispersion "
          "relation of the simulator's renderer), blind (it searches the camera's velocity over "
          "the water too) and with the velocity known (as a vehicle's navigation gives it), "
+         "each followed by a *trusted only* row (the same estimates less those the altimeter "
+         "flags itself, quality < 0.3; n counts what is left), "
          "and the constant baseline (training-set mean "
          "altitude). Columns: the test condition (`residual` is the paper's eq. (6) glint "
          "estimate; `tmf-min`, `median`, `percentile`, `glint-mask`, `achromatic` are "
@@ -396,23 +398,29 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
         for name, e in evals.items():
             m = e["metrics"]
             n0 = next(iter(m.values()))["n"] if m else 0
-            cells = []
-            for c in conds:
-                v = m.get(c)
-                if v is None:
-                    cells.append("—")
-                    continue
-                val = v.get(key, math.nan)
-                if not math.isfinite(val):
-                    cell = "—"
-                elif fmt is None:
-                    cell = f"{_f(val)} [{_f(v['bias_m'], True)}]"
-                else:
-                    cell = f"{val:.1f}"
-                if v["n"] != n0:
-                    cell += f" (n={v['n']})"
-                cells.append(cell)
-            L.append(f"| {_method_label(name, e)} | " + " | ".join(cells) + " |")
+            rows = [(_method_label(name, e), m, False)]
+            if any("trusted" in v for v in m.values()):
+                # the same estimates, less those the estimator flagged itself
+                rows.append((f"{_method_label(name, e)}, trusted only",
+                             {c: v["trusted"] for c, v in m.items() if "trusted" in v}, True))
+            for label, mm, always_n in rows:
+                cells = []
+                for c in conds:
+                    v = mm.get(c)
+                    if v is None:
+                        cells.append("—")
+                        continue
+                    val = v.get(key, math.nan)
+                    if not math.isfinite(val):
+                        cell = "—"
+                    elif fmt is None:
+                        cell = f"{_f(val)} [{_f(v['bias_m'], True)}]"
+                    else:
+                        cell = f"{val:.1f}"
+                    if always_n or v["n"] != n0:
+                        cell += f" (n={v['n']})"
+                    cells.append(cell)
+                L.append(f"| {label} | " + " | ".join(cells) + " |")
         L.append("")
     if stages:
         skipped = {k: v["status"] for k, v in stages.items()

@@ -38,7 +38,7 @@ from typing import Any, Protocol
 import numpy as np
 from tqdm.auto import tqdm
 
-from wavealt.altimetry.dispersion import TRUSTED_QUALITY
+from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter
 
 METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m", "rel_mae_pct")
 
@@ -155,12 +155,6 @@ class DispersionEstimator:
     """
 
     def __init__(self, *, dispersion: str | None = None, aided: bool = False) -> None:
-        try:
-            from wavealt.altimetry.dispersion import DispersionAltimeter
-        except ImportError as exc:
-            msg = f"estimator 'dispersion' is not available: {exc}"
-            raise ValueError(msg) from None
-        self._cls = DispersionAltimeter
         self.aided = bool(aided)
         self.dispersion = dispersion
         self.altimeter = None if dispersion is None else DispersionAltimeter(dispersion=dispersion)
@@ -174,7 +168,7 @@ class DispersionEstimator:
         """Fix the dispersion relation to the one of ``dataset``'s renderer, if not given."""
         if self.altimeter is None:
             self.dispersion = dispersion_of(getattr(dataset, "config", None))
-            self.altimeter = self._cls(dispersion=self.dispersion)
+            self.altimeter = DispersionAltimeter(dispersion=self.dispersion)
 
     def estimate_with_quality(self, dataset: Any, condition: str,
                               record: Any) -> tuple[float, float]:

@@ -4,8 +4,8 @@ Two modes on the same sequences: *aided* (the camera's velocity over the water i
 e.g. from satellite navigation; only the altitude is searched) and *blind* (the drift is
 searched too).  Three inputs: the paper renderer's clean and glinty frames, and frames
 linear in the surface slope (an idealised camera).  Relative errors per altitude and wind
-band, and above 6 m per camera speed band; latency per 10-frame window; how many estimates flagged themselves (quality < 0.3)
-and whether the reported uncertainty covers the error.
+band, and above 6 m per camera speed band; latency per 10-frame window; how many estimates
+flagged themselves (quality < 0.3) and whether the reported uncertainty covers the error.
 
     python benchmarks/bench_dispersion.py [--quick] [--sequences N] [--size 256] [--preset realistic]
 """
@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from wavealt.altimetry.dispersion import DispersionAltimeter
+from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
 
@@ -93,7 +93,7 @@ def main() -> None:
         a = np.array(rows)
         err = (a[:, 0] - alt) / alt
         rel = np.abs(err)
-        flagged = a[:, 2] < 0.3
+        flagged = a[:, 2] < TRUSTED_QUALITY
         result[f"{name}_{mode}"] = {
             "rel_mae_pct": round(100 * float(rel.mean()), 3),
             "rel_bias_pct": round(100 * float(err.mean()), 3),

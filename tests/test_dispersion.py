@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import (
-    DispersionAltimeter, DispersionResult, altitude_series, estimate_altitude,
+    DispersionAltimeter, DispersionResult, _wrap, altitude_series, estimate_altitude,
 )
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
@@ -232,13 +232,16 @@ def test_foam_on_two_percent_of_the_frame_does_not_pose_as_waves() -> None:
     assert res.quality > 0.3
 
 
-@pytest.mark.xfail(strict=True, reason="known limitation: dense advected foam (3.5 % of the "
-                   "frame) outweighs the waves; needs foam masking or an advection term")
-def test_dense_advected_foam_is_flagged() -> None:
+@pytest.mark.parametrize("signal", ["chroma", "luma"])
+def test_dense_advected_foam_is_measured_through(signal: str) -> None:
+    """Dense foam (3.5 % of the frame) carried by the water: the quadrant modes, off the
+    image centre, keep the fit on the waves (the whole frame's alone lost it: 11.6 m and
+    flagged, for 4 m)."""
     frames, h, cfg, sc = _foamy_frames(20, 6.0)
-    res = DispersionAltimeter(dispersion="gravity", signal="chroma").estimate(
+    res = DispersionAltimeter(dispersion="gravity", signal=signal).estimate(
         frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=sc.camera_velocity_mps)
-    assert abs(res.altitude_m - h) / h < 0.05 or res.quality < 0.3
+    assert abs(res.altitude_m - h) / h < 0.05
+    assert res.quality > 0.3
 
 
 @pytest.mark.parametrize("method", ["median", "tmf-min"])
@@ -254,6 +257,68 @@ def test_frozen_motion_is_flagged_not_reported(method: str) -> None:
         frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=(0.0, 0.0))
     assert res.quality < 0.3
     assert res.altitude_std_m > 0.3 * res.altitude_m
+
+
+def test_weighted_scan_values_follow_the_predicted_turn() -> None:
+    """Weighted per-mode values: the unweighted share times clip(cycles - 1/2, 0, 1) of the
+    chosen direction's predicted phase step over the clip, each candidate's row rescaled so
+    that its mean is the weighted mean; a candidate that predicts every mode to stand still
+    gets no weight anywhere (and no NaN)."""
+    rng = np.random.default_rng(4)
+    t, n, n_psi = 10, 40, 128
+    kx, ky = rng.uniform(0.05, 1.5, n), rng.uniform(-1.0, 1.0, n)
+    q = rng.uniform(0.0, 1.0, (n, n_psi + 1)).astype(np.float32)
+    q[:, n_psi] = q[:, 0]
+    p = {"q": q, "kx": kx, "ky": ky, "kappa": np.hypot(kx, ky), "frames": t}
+    est = DispersionAltimeter(dispersion="gravity")
+    focal_px, fps = 200.0, 30.0
+    logh = np.log([1.0, 6.0, 40.0])
+    ux, uy = np.array([0.5, -0.1, 0.0]), np.array([0.2, 0.3, 0.0])
+    plain = est._mode_values(p, fps, focal_px, logh, ux, uy)
+    weighted = est._mode_values(p, fps, focal_px, logh, ux, uy, weighted=True)
+    for c in range(3):
+        om = est.omega(p["kappa"] * focal_px / np.exp(logh[c])) / fps
+        dop = kx * ux[c] + ky * uy[c]
+        steps = [_wrap(om - dop), _wrap(-om - dop)]
+        # the branch the plain values took, and its turn over the clip
+        lookup = [np.array([np.interp(np.mod(st[m], 2 * np.pi) * n_psi / (2 * np.pi),
+                                      np.arange(n_psi + 1), q[m]) for m in range(n)])
+                  for st in steps]
+        np.testing.assert_allclose(plain[c], np.maximum(*lookup), atol=1e-4)
+        chosen = np.where(lookup[1] > lookup[0], np.abs(steps[1]), np.abs(steps[0]))
+        w = np.clip(chosen * t / (2 * np.pi) - 0.5, 0.0, 1.0)
+        if w.sum() > 0:
+            np.testing.assert_allclose(weighted[c], plain[c] * w * n / w.sum(), rtol=1e-3,
+                                       atol=1e-4)
+            assert weighted[c].mean() == pytest.approx(np.sum(plain[c] * w) / w.sum(), rel=1e-3)
+    # hovering at 40 m: the slowest modes turn less than half a cycle over 10 frames
+    slow = np.abs(est.omega(p["kappa"] * focal_px / 40.0) / fps) * t / (2 * np.pi) < 0.5
+    assert slow.any() and np.all(weighted[2][slow] == 0.0)
+    flat = est._mode_values(p, fps, focal_px, np.log([1e6]), np.zeros(1), np.zeros(1),
+                            weighted=True)
+    assert np.all(flat == 0.0)
+
+
+def test_periodogram_adds_quadrant_modes_within_max_modes() -> None:
+    """With quadrant modes the table holds max_modes modes in all, half of them from the
+    quadrants (whose wavenumber bins are twice as coarse); without them, or on frames
+    smaller than 64 px, the whole frame's alone."""
+    rng = np.random.default_rng(5)
+    frames = rng.normal(size=(6, 128, 128)).astype(np.float32)
+    both = DispersionAltimeter(max_modes=600)._periodogram(frames)
+    alone = DispersionAltimeter(max_modes=600, quadrant_modes=False)._periodogram(frames)
+    assert both["q"].shape[0] == alone["q"].shape[0] == 600
+    assert both["frames"] == alone["frames"] == 6
+    # quadrant bins: multiples of 2 pi / 64; whole-frame bins: of 2 pi / 128
+    on_quad_grid = np.isclose(np.mod(both["kx"] * 64 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    assert on_quad_grid[300:].all()
+    assert not on_quad_grid[:300].all()
+    small = DispersionAltimeter(max_modes=600)._periodogram(frames[:, :48, :48])
+    assert small["q"].shape[0] == DispersionAltimeter(
+        max_modes=600, quadrant_modes=False)._periodogram(frames[:, :48, :48])["q"].shape[0]
+    # every table row is a share in [0, 1] with the wrap column equal to the first
+    assert np.all((both["q"] >= 0) & (both["q"] <= 1 + 1e-5))
+    np.testing.assert_array_equal(both["q"][:, -1], both["q"][:, 0])
 
 
 def test_gravity_shortcut_matches_the_dispersion_relation() -> None:

@@ -236,6 +236,10 @@ class DispersionAltimeter:
         Mode groups whose spread gives the uncertainty.
     sharpness : float
         Exponent applied to every mode's explained share (:meth:`_periodogram`).
+    quadrant_modes : bool
+        Add the modes of the four image quadrants to the whole frame's (:meth:`_periodogram`).
+        Paper renderer, 10 frames, velocity known (``bench_dispersion.py``, 100 scenes):
+        median relative error clean 0.36 -> 0.23 %.
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
@@ -244,8 +248,9 @@ class DispersionAltimeter:
                  altitude_range_m: tuple[float, float] = (0.5, 20.0),
                  tiles: str = "full", signal: str = "luma", chroma_min_share: float = 0.05,
                  n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
-                 sharpness: float = 5.0) -> None:
+                 sharpness: float = 5.0, quadrant_modes: bool = True) -> None:
         check_choice("signal", signal, SIGNALS)
+        self.quadrant_modes = bool(quadrant_modes)
         self.signal = signal
         self.chroma_min_share = check_finite_number("chroma_min_share", chroma_min_share,
                                                     low=0.0)
@@ -549,37 +554,71 @@ class DispersionAltimeter:
         mode's power: every mode votes with equal weight (whitening), so the strong but
         poorly resolved long waves do not drown the short ones, whose phase steps are large
         against the 2 pi / T resolution of a short clip.
+
+        With ``quadrant_modes`` the table also holds the modes of the four image quadrants
+        (explained and total energy summed over them).  Near nadir the Fresnel reflectance
+        is quadratic in the angle between the normal and the line of sight, so the image
+        centre, where the line of sight is vertical, records the slope squared: sum and
+        difference products of wave pairs, off the dispersion shell.  Off centre the linear
+        term (slope times view tilt) dominates.  The whole frame's Hann window weights the
+        centre most; each quadrant's weights the ring between centre and edge.
         """
         t, h, w = signal.shape
-        kx, ky, kappa, _, idx = self._plane(h, w)
-        f = scipy.fft.rfft2(signal * _hann2d(h, w), axes=(1, 2), workers=1).reshape(t, -1)
-        g = f[:, idx]  # (T, modes)
-        xr, xi = np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag)
-        # the temporal mean of every pixel, removed where it is cheap: per selected mode
-        xr -= xr.mean(axis=0)
-        xi -= xi.mean(axis=0)
-        energy = np.einsum("tm,tm->m", xr, xr) + np.einsum("tm,tm->m", xi, xi)
-        keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
-        if not keep.all():
-            idx, xr, xi, energy = idx[keep], xr[:, keep], xi[:, keep], energy[keep]
-        # the table must resolve the periodogram's peak, 2 pi / T wide: >= ~6 steps per width
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
-        # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step, as real matrix
-        # products (T is short, so this beats an n_psi-point FFT per mode)
         arg = np.outer(np.arange(t), psi)
-        cos, sin = np.cos(arg).astype(np.float32), np.sin(arg).astype(np.float32)
-        zr = xr.T @ cos
-        zr -= xi.T @ sin
-        zi = xr.T @ sin
-        zi += xi.T @ cos
+        basis = (np.cos(arg).astype(np.float32), np.sin(arg).astype(np.float32))
         dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
         denom = np.maximum(t - dirichlet / t, 1e-9)
+        quads = self.quadrant_modes and min(h, w) >= 64
+        # max_modes in all: half from the whole frame, half from the quadrants
+        limit = self.max_modes // 2 if quads else self.max_modes
+        tables = [self._share_table([signal], basis, denom, limit)]
+        if quads:
+            hq, wq = h // 2, w // 2
+            tables.append(self._share_table(
+                [signal[:, :hq, :wq], signal[:, :hq, w - wq:], signal[:, h - hq:, :wq],
+                 signal[:, h - hq:, w - wq:]], basis, denom, self.max_modes - limit))
+        q = np.concatenate([tb[0] for tb in tables])
+        # the table, with one wrap column for interpolation
+        q = np.concatenate([q, q[:, :1]], axis=1)
+        return {"q": q, "kx": np.concatenate([tb[1] for tb in tables]),
+                "ky": np.concatenate([tb[2] for tb in tables]),
+                "kappa": np.concatenate([tb[3] for tb in tables]), "frames": t}
+
+    def _share_table(self, parts: list[np.ndarray], basis: tuple[np.ndarray, np.ndarray],
+                     denom: np.ndarray, limit: int) -> tuple[np.ndarray, ...]:
+        """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
+        of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
+        parts; and the modes' ``kx, ky, kappa``."""
+        t, h, w = parts[0].shape
+        kx, ky, kappa, _, idx = self._plane(h, w, limit)
+        cos, sin = basis
+        explained = np.zeros((idx.size, cos.shape[1]), dtype=np.float32)
+        energy = np.zeros(idx.size)
+        for part in parts:
+            f = scipy.fft.rfft2(part * _hann2d(h, w), axes=(1, 2), workers=1).reshape(t, -1)
+            g = f[:, idx]  # (T, modes)
+            xr, xi = np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag)
+            # the temporal mean of every pixel, removed where it is cheap: per selected mode
+            xr -= xr.mean(axis=0)
+            xi -= xi.mean(axis=0)
+            energy += np.einsum("tm,tm->m", xr, xr) + np.einsum("tm,tm->m", xi, xi)
+            # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step, as real matrix
+            # products (T is short, so this beats an n_psi-point FFT per mode)
+            zr = xr.T @ cos
+            zr -= xi.T @ sin
+            zi = xr.T @ sin
+            zi += xi.T @ cos
+            zr *= zr
+            zi *= zi
+            explained += zr
+            explained += zi
+        keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
+        if not keep.all():
+            idx, explained, energy = idx[keep], explained[keep], energy[keep]
         # explained share |z|^2 / D(psi) / E
-        share = zr
-        share *= zr
-        zi *= zi
-        share += zi
+        share = explained
         share *= (1.0 / denom).astype(np.float32)[None, :]
         share *= (1.0 / energy).astype(np.float32)[:, None]
         share[:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
@@ -588,19 +627,16 @@ class DispersionAltimeter:
         # with the rendering's non-linear products (harmonics, sum and difference
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
-        share = _sharpen(share, self.sharpness)
-        # the table, with one wrap column for interpolation
-        q = np.empty((idx.size, n_psi + 1), dtype=np.float32)
-        q[:, :n_psi] = share
-        q[:, n_psi] = share[:, 0]
-        return {"q": q, "kx": kx[idx], "ky": ky[idx], "kappa": kappa[idx]}
+        return _sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx]
 
-    def _plane(self, h: int, w: int) -> tuple[np.ndarray, ...]:
+    def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the
         band ``[min_kappa_bins, max_kappa_frac pi]`` (one of each ``+-ky`` pair on the
         ``kx = 0`` column) and the periodogram's fixed, even subsample of it, at most
-        ``max_modes`` (the strongest would be the low wavenumbers only).  Cached per size."""
-        key = (h, w)
+        ``limit`` (default ``max_modes``; the strongest would be the low wavenumbers only).
+        Cached per size and limit."""
+        limit = self.max_modes if limit is None else int(limit)
+        key = (h, w, limit)
         cache = self.__dict__.setdefault("_plane_cache", {})
         if key not in cache:
             ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
@@ -612,20 +648,26 @@ class DispersionAltimeter:
                                   & (kappa <= self.max_kappa_frac * np.pi)
                                   & ~((kx == 0) & (ky < 0)))
             even = band
-            if band.size > self.max_modes:
-                sel = np.random.default_rng(0).choice(band.size, self.max_modes, replace=False)
+            if band.size > limit:
+                sel = np.random.default_rng(0).choice(band.size, limit, replace=False)
                 even = band[np.sort(sel)]
             cache[key] = (kx, ky, kappa, band, even)
         return cache[key]
 
     def _mode_values(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                      logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-                     modes: np.ndarray | None = None) -> np.ndarray:
+                     modes: np.ndarray | None = None, weighted: bool = False) -> np.ndarray:
         """Explained share of every mode for candidates ``(log h, ux, uy)`` (same shape):
         ``(candidates, modes)`` float32.
 
         A candidate predicts each mode's phase step ``s omega(kappa f / h) / fps - kappa.u``
         (eq. (1)); each mode takes the better of the two directions ``s = +-1``.
+
+        ``weighted``: each value is weighted by how far the predicted phase step turns over
+        the clip, ``clip(cycles - 0.5, 0, 1)``, and a candidate's row is rescaled so that its
+        mean over the modes is the weighted mean.  A mode the candidate predicts to
+        (nearly) stand still in the image cannot tell the wave from the optics' slow
+        products, which fill the inside of the dispersion shell (:meth:`_fit_aided`).
         """
         q = p["q"] if modes is None else p["q"][modes]
         kappa = p["kappa"] if modes is None else p["kappa"][modes]
@@ -644,7 +686,7 @@ class DispersionAltimeter:
                + np.atleast_1d(uy)[:, None] * (ky * to_bins)[None, :])
         flat = q.ravel()
         base = (np.arange(q.shape[0]) * q.shape[1])[None, :]
-        best = None
+        best = wt = None
         for pos in (om - dop, -om - dop):  # phase steps in table bins, s = +1 and -1
             pos = pos.astype(np.float32)
             pos -= np.floor(pos * np.float32(1.0 / n_psi)) * np.float32(n_psi)
@@ -653,14 +695,25 @@ class DispersionAltimeter:
             j += base
             lo = flat[j]
             val = lo + (flat[j + 1] - lo) * frac
+            if weighted:
+                # cycles the predicted phase step turns over the clip, minus half a cycle
+                turn = np.minimum(pos, n_psi - pos) * np.float32(p["frames"] / n_psi) - 0.5
+                w = np.clip(turn, 0.0, 1.0)
+                if wt is not None:
+                    w = np.where(val > best, w, wt)
+                wt = w
             best = val if best is None else np.maximum(best, val)
+        if weighted:
+            best = best * wt
+            best *= (wt.shape[1] / np.maximum(wt.sum(axis=1, keepdims=True), 1e-9)).astype(
+                np.float32)
         return best
 
     def _score(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-               modes: np.ndarray | None = None) -> np.ndarray:
+               modes: np.ndarray | None = None, weighted: bool = False) -> np.ndarray:
         """Mean explained share over modes for candidates ``(log h, ux, uy)`` (same shape)."""
-        return self._mode_values(p, fps, focal_px, logh, ux, uy, modes).mean(axis=1)
+        return self._mode_values(p, fps, focal_px, logh, ux, uy, modes, weighted).mean(axis=1)
 
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
@@ -742,11 +795,19 @@ class DispersionAltimeter:
                    velocity_mps: tuple[float, float]) -> dict[str, Any]:
         """Known camera velocity over the water: a 1-D search over the altitude alone.
 
-        A coarse scan over log altitude picks its most *prominent* peak (not the
-        highest: slow or frozen content, e.g. wave groups or glint, makes the scan rise
-        steadily toward high altitudes, and a bump on that rise is no wave shell).  A fine
-        grid around it, evaluated once per mode, gives both the estimate (parabolic peak of
-        the mean) and its spread over mode groups (:meth:`_result`).
+        A coarse scan over log altitude picks its most *prominent* peak (not the highest:
+        slow content makes the scan rise toward high altitudes, and a bump on that rise is
+        no wave shell).  The scan weights each mode by how far the candidate makes it turn
+        over the clip (:meth:`_mode_values`): when the camera drifts downwind, the Doppler
+        shift cancels the waves' own motion on a band of modes, which then stand nearly
+        still in the image and hold only the optics' slow products; unweighted, those
+        made the scan rise with no peak near the truth (paper renderer, 10 frames, 100
+        scenes: 6 errors of 30-95 % at 7-15 m clean).  The fine stage, on every mode and
+        unweighted, takes the highest point within +-4 coarse steps and refines it with a
+        parabola; the mode groups' spread there gives the uncertainty (:meth:`_result`).
+        The quality is the prominence of the *unweighted* scan's peak at the estimate (none
+        within two steps: no quality), so an estimate that only the weighting found is not
+        trusted.
         """
         vx, vy = (float(v) for v in velocity_mps)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
@@ -760,14 +821,28 @@ class DispersionAltimeter:
         # high altitudes the shell's peak is broad (the waves move little in a short clip).
         step = (hi - lo) / (self.n_scan - 1)
         grid = np.arange(lo - math.log(1.5), hi + math.log(4.0) + step / 2, step)
-        # the coarse scan needs no more than a fixed subsample of the modes
+        # the coarse scans need no more than a fixed subsample of the modes
         sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 300))
-        scan = self._score(p, fps, focal_px, grid, *u_of(grid), modes=sub)
-        i, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step)
-        local = grid[i] + np.linspace(-1.2, 1.2, 11) * step
+        ux, uy = u_of(grid)
+        weighted = self._score(p, fps, focal_px, grid, ux, uy, modes=sub, weighted=True)
+        i = _most_prominent(weighted, grid, lo - step, hi + step)[0]
+        local = grid[i] + np.linspace(-4.0, 4.0, 17) * step
         vals = self._mode_values(p, fps, focal_px, local, *u_of(local))
         mean = vals.mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
+        # the spread over mode groups is measured on the points around the peak
+        j = int(np.clip(np.argmax(mean), 5, local.size - 6))
+        local, vals = local[j - 5:j + 6], vals[j - 5:j + 6]
+        scan = self._score(p, fps, focal_px, grid, ux, uy, modes=sub)
+        from scipy.signal import find_peaks
+
+        peaks, props = find_peaks(scan, prominence=0.0)
+        near = np.abs(grid[peaks] - logh) <= 2.0 * step
+        prominence, interior = 0.0, False
+        if near.any():
+            k = int(np.argmax(np.where(near, props["prominences"], -1.0)))
+            prominence = float(props["prominences"][k])
+            interior = bool(lo - step <= grid[peaks[k]] <= hi + step)
         ux, uy = u_of(np.array([logh]))
         return {"logh": logh, "u": np.array([ux[0], uy[0]]), "scan": scan,
                 "interior": interior, "prominence": prominence, "local": local, "vals": vals}

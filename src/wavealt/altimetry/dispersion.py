@@ -835,15 +835,8 @@ class DispersionAltimeter:
         j = int(np.clip(np.argmax(mean), 5, local.size - 6))
         local, vals = local[j - 5:j + 6], vals[j - 5:j + 6]
         scan = self._score(p, fps, focal_px, grid, ux, uy, modes=sub)
-        from scipy.signal import find_peaks
-
-        peaks, props = find_peaks(scan, prominence=0.0)
-        near = np.abs(grid[peaks] - logh) <= 2.0 * step
-        prominence, interior = 0.0, False
-        if near.any():
-            k = int(np.argmax(np.where(near, props["prominences"], -1.0)))
-            prominence = float(props["prominences"][k])
-            interior = bool(lo - step <= grid[peaks[k]] <= hi + step)
+        _, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step, near=logh,
+                                                  within=2.0 * step)
         ux, uy = u_of(np.array([logh]))
         return {"logh": logh, "u": np.array([ux[0], uy[0]]), "scan": scan,
                 "interior": interior, "prominence": prominence, "local": local, "vals": vals}
@@ -950,19 +943,24 @@ class DispersionAltimeter:
                                 velocity_mps=vel, quality=q, frames=int(t), n_modes=int(n))
 
 
-def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float,
-                    hi: float) -> tuple[int, float, bool]:
-    """Index of the most prominent peak of ``scan`` over ``grid``, its prominence, and
-    whether it lies within ``[lo, hi]``; ``(argmax, 0, False)`` when the scan has no peak
-    (it rises to an end: nothing there pins the altitude)."""
+def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float, hi: float,
+                    near: float | None = None, within: float = 0.0) -> tuple[int, float, bool]:
+    """Index of the most prominent peak of ``scan`` over ``grid`` (with ``near``: among the
+    peaks within ``within`` of it), its prominence, and whether it lies within ``[lo, hi]``;
+    ``(argmax, 0, False)`` when there is no such peak (the scan rises to an end: nothing
+    there pins the altitude)."""
     from scipy.signal import find_peaks
 
     peaks, props = find_peaks(scan, prominence=0.0)
+    prom = props["prominences"]
+    if near is not None:
+        keep = np.abs(grid[peaks] - near) <= within
+        peaks, prom = peaks[keep], prom[keep]
     if not peaks.size:
         return int(np.argmax(scan)), 0.0, False
-    k = int(np.argmax(props["prominences"]))
+    k = int(np.argmax(prom))
     i = int(peaks[k])
-    return i, float(props["prominences"][k]), bool(lo <= grid[i] <= hi)
+    return i, float(prom[k]), bool(lo <= grid[i] <= hi)
 
 
 def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:

@@ -123,6 +123,13 @@ def _hann2d(h: int, w: int) -> np.ndarray:
     return win
 
 
+def _quadrants(arr: np.ndarray) -> list[np.ndarray]:
+    """The four ``(T, H // 2, W // 2)`` corner quadrants of ``(T, H, W)`` frames (views)."""
+    _, h0, w0 = arr.shape
+    h, w = h0 // 2, w0 // 2
+    return [arr[:, :h, :w], arr[:, :h, w0 - w:], arr[:, h0 - h:, :w], arr[:, h0 - h:, w0 - w:]]
+
+
 def _has_texture(arr: np.ndarray) -> bool:
     """Whether ``arr`` holds more than one value (beyond float rounding)."""
     return float(np.ptp(arr)) > (0 if arr.dtype == np.uint8 else 1e-6)
@@ -310,9 +317,8 @@ class DispersionAltimeter:
             # linear part is the slope times the view tilt, which changes sign across the
             # image centre; an odd modulation smears each mode over its neighbours (biasing
             # toward the stronger, slower low wavenumbers).  Quadrant tiles see one sign.
-            h, w = h0 // 2, w0 // 2
-            parts = [gray[:, :h, :w], gray[:, :h, w0 - w:], gray[:, h0 - h:, :w],
-                     gray[:, h0 - h:, w0 - w:]]
+            parts = _quadrants(gray)
+            h, w = parts[0].shape[1:]
         else:
             h, w = h0, w0
             parts = [gray]
@@ -576,10 +582,8 @@ class DispersionAltimeter:
         limit = self.max_modes // 2 if quads else self.max_modes
         tables = [self._share_table([signal], basis, denom, limit)]
         if quads:
-            hq, wq = h // 2, w // 2
-            tables.append(self._share_table(
-                [signal[:, :hq, :wq], signal[:, :hq, w - wq:], signal[:, h - hq:, :wq],
-                 signal[:, h - hq:, w - wq:]], basis, denom, self.max_modes - limit))
+            tables.append(self._share_table(_quadrants(signal), basis, denom,
+                                            self.max_modes - limit))
         q = np.concatenate([tb[0] for tb in tables])
         # the table, with one wrap column for interpolation
         q = np.concatenate([q, q[:, :1]], axis=1)

@@ -267,8 +267,7 @@ def test_weighted_scan_values_follow_the_predicted_turn() -> None:
     rng = np.random.default_rng(4)
     t, n, n_psi = 10, 40, 128
     kx, ky = rng.uniform(0.05, 1.5, n), rng.uniform(-1.0, 1.0, n)
-    q = rng.uniform(0.0, 1.0, (n, n_psi + 1)).astype(np.float32)
-    q[:, n_psi] = q[:, 0]
+    q = rng.uniform(0.0, 1.0, (n, n_psi)).astype(np.float32)
     p = {"q": q, "kx": kx, "ky": ky, "kappa": np.hypot(kx, ky), "frames": t}
     est = DispersionAltimeter(dispersion="gravity")
     focal_px, fps = 200.0, 30.0
@@ -282,7 +281,8 @@ def test_weighted_scan_values_follow_the_predicted_turn() -> None:
         steps = [_wrap(om - dop), _wrap(-om - dop)]
         # the branch the plain values took, and its turn over the clip
         lookup = [np.array([np.interp(np.mod(st[m], 2 * np.pi) * n_psi / (2 * np.pi),
-                                      np.arange(n_psi + 1), q[m]) for m in range(n)])
+                                      np.arange(n_psi + 1), np.append(q[m], q[m, 0]))
+                            for m in range(n)])
                   for st in steps]
         np.testing.assert_allclose(plain[c], np.maximum(*lookup), atol=1e-4)
         chosen = np.where(lookup[1] > lookup[0], np.abs(steps[1]), np.abs(steps[0]))
@@ -316,9 +316,9 @@ def test_periodogram_adds_quadrant_modes_within_max_modes() -> None:
     small = DispersionAltimeter(max_modes=600)._periodogram(frames[:, :48, :48])
     assert small["q"].shape[0] == DispersionAltimeter(
         max_modes=600, quadrant_modes=False)._periodogram(frames[:, :48, :48])["q"].shape[0]
-    # every table row is a share in [0, 1] with the wrap column equal to the first
+    # every table row is a share in [0, 1] at the n_psi phase steps of one turn
+    assert both["q"].shape[1] == 64
     assert np.all((both["q"] >= 0) & (both["q"] <= 1 + 1e-5))
-    np.testing.assert_array_equal(both["q"][:, -1], both["q"][:, 0])
 
 
 def test_gravity_shortcut_matches_the_dispersion_relation() -> None:
@@ -337,8 +337,7 @@ def test_gravity_shortcut_matches_the_dispersion_relation() -> None:
         return np.abs(np.sum(x * np.exp(1j * np.outer(np.arange(t), psi)), axis=0)) ** 2 / t**2
 
     z = np.stack([share(np.full(n, g)) for g in grid], axis=1)
-    q = np.concatenate([z, z[:, :1]], axis=1).astype(np.float32)
-    p = {"q": q, "kx": kx, "ky": ky, "kappa": kappa}
+    p = {"q": z.astype(np.float32), "kx": kx, "ky": ky, "kappa": kappa}
     logh = np.log([0.7, 2.0, 9.0])
     ux, uy = np.array([0.3, -1.2, 2.5]), np.array([-0.2, 0.4, 0.0])
     for dispersion in ("gravity", "gravity-capillary"):

@@ -123,6 +123,52 @@ def _hann2d(h: int, w: int) -> np.ndarray:
     return win
 
 
+@functools.lru_cache(maxsize=8)
+def _hann2d_torch(h: int, w: int) -> Any:
+    """:func:`_hann2d` as a (cached) torch tensor."""
+    import torch
+
+    return torch.from_numpy(_hann2d(h, w).copy())
+
+
+def _windowed_modes(parts: list[np.ndarray], idx: np.ndarray) -> np.ndarray:
+    """Hann-windowed 2-D spectra of equal-sized ``(T, h, w)`` float32 ``parts`` (views
+    welcome) at the flat rfft2 indices ``idx``: ``(len(parts), T, len(idx))`` complex64.
+
+    The FFTs run in PyTorch (already a dependency, for the CNN): its MKL transform is about
+    three times faster than SciPy's pocketfft on one core (10 frames of 256^2: 1.3 against
+    4.1 ms), which is a large part of the dispersion fit's budget.
+    """
+    import torch
+
+    t, h, w = parts[0].shape
+    win = _hann2d_torch(h, w)
+    x = torch.empty((len(parts), t, h, w), dtype=torch.float32)
+    for i, part in enumerate(parts):
+        torch.mul(torch.from_numpy(part), win, out=x[i])
+    return torch.fft.rfft2(x).reshape(len(parts), t, -1)[:, :, torch.from_numpy(idx)].numpy()
+
+
+def _one_blas_thread() -> Any:
+    """Context in which NumPy's BLAS runs on one thread (PyTorch's FFT keeps its own).
+
+    The matrix products of one window are small; threaded, OpenBLAS's workers keep
+    spinning after each product and fight PyTorch's for the cores: on two cores the median
+    10-frame window took 26 ms instead of 19 (p90 86 against 22 ms).
+    """
+    from threadpoolctl import ThreadpoolController
+
+    global _BLAS_CONTROLLER
+    if _BLAS_CONTROLLER is None:
+        import torch  # noqa: F401  (load its libraries before they are listed)
+
+        _BLAS_CONTROLLER = ThreadpoolController()
+    return _BLAS_CONTROLLER.limit(limits=1, user_api="blas")
+
+
+_BLAS_CONTROLLER: Any = None
+
+
 def _quadrants(arr: np.ndarray) -> list[np.ndarray]:
     """The four ``(T, H // 2, W // 2)`` corner quadrants of ``(T, H, W)`` frames (views)."""
     _, h0, w0 = arr.shape
@@ -150,9 +196,11 @@ def _robust_level(x: np.ndarray, n_sample: int) -> tuple[float, float]:
     """Median and MAD-based standard deviation (``1.4826 * MAD``) of ``x``, from a fixed
     subsample of about ``n_sample`` values (a full median of a 10-frame 256^2 clip costs
     more than the rest of the estimate)."""
-    sample = x.ravel()[:: max(1, x.size // n_sample)]
-    med = float(np.median(sample))
-    return med, float(np.median(np.abs(sample - med))) * 1.4826
+    sample = x.ravel()[:: max(1, x.size // n_sample)].astype(np.float32)
+    k = sample.size // 2  # the upper median: a partition, several times cheaper than np.median
+    med = float(np.partition(sample, k)[k])
+    dev = np.abs(sample - np.float32(med), out=sample)
+    return med, float(np.partition(dev, k)[k]) * 1.4826
 
 
 def _clip_outliers(signal: np.ndarray, n_sigma: float,
@@ -173,23 +221,25 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float,
     return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad, out=signal)
 
 
-def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0) -> np.ndarray:
+def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0,
+            out: np.ndarray | None = None) -> np.ndarray:
     """Suppress glint spikes in ``(T, H, W)`` gray frames before the spectral analysis.
 
     ``"clip"`` limits every pixel to ``median + clip_sigma * 1.4826 * MAD`` of the whole
     sequence (glint is sparse, bright and one-sided; the wave texture is not).  ``"median"``
     replaces each pixel by ``min(value, temporal median + clip_sigma * MAD)`` per pixel.
     ``"none"`` returns the input.  Both are invariant to a brightness gain and offset.
+    ``out``: where to write the result (``gray`` itself is allowed); default a new array.
     """
     check_choice("deglint", method, DEGLINTS)
     if method == "none":
         return gray
     if method == "clip":
         med, mad = _robust_level(gray, 16_384)
-        return np.minimum(gray, med + clip_sigma * mad)
+        return np.minimum(gray, np.float32(med + clip_sigma * mad), out=out)
     med_t = np.median(gray, axis=0, keepdims=True)
     mad = float(np.median(np.abs(gray - med_t))) * 1.4826
-    return np.minimum(gray, med_t + clip_sigma * mad)
+    return np.minimum(gray, med_t + clip_sigma * mad, out=out)
 
 
 class DispersionAltimeter:
@@ -507,6 +557,11 @@ class DispersionAltimeter:
         return fit
 
     # -- signal ----------------------------------------------------------------------------
+    def _luma(self, arr: np.ndarray) -> np.ndarray:
+        """The luminance of ``arr`` with glint spikes suppressed (:func:`deglint`), float32."""
+        gray = _to_gray(arr)  # a new array: deglinted in place
+        return deglint(gray, method=self.deglint, clip_sigma=self.clip_sigma, out=gray)
+
     def _signal(self, arr: np.ndarray) -> tuple[np.ndarray, str]:
         """The scalar image sequence the spectra are taken of, and which one it is.
 
@@ -519,7 +574,7 @@ class DispersionAltimeter:
         the luminance with glint spikes clipped (:func:`deglint`).
         """
         if self.signal == "luma" or arr.ndim == 3:
-            return deglint(_to_gray(arr), method=self.deglint, clip_sigma=self.clip_sigma), "luma"
+            return self._luma(arr), "luma"
         x = arr.reshape(-1, 3)
         sample = x[:: max(1, x.shape[0] // 4_096)].astype(np.float64)
         if arr.dtype == np.uint8:
@@ -539,13 +594,12 @@ class DispersionAltimeter:
         chroma_sub = (sub @ wf).astype(np.float32, copy=False)
         med, mad = _robust_level(chroma_sub, 4_096)
         if self.signal == "auto":
-            luma_sub = deglint(_to_gray(sub), method=self.deglint, clip_sigma=self.clip_sigma)
+            luma_sub = self._luma(sub)
             var_c = float(np.mean(np.var(_clip_outliers(chroma_sub, self.clip_sigma, (med, mad)),
                                          axis=0)))
             var_l = float(np.mean(np.var(luma_sub, axis=0)))
             if not (var_l > 0 and var_c >= self.chroma_min_share * var_l):
-                return deglint(_to_gray(arr), method=self.deglint,
-                               clip_sigma=self.clip_sigma), "luma"
+                return self._luma(arr), "luma"
         chroma = (arr @ wf).astype(np.float32, copy=False)
         return _clip_outliers(chroma, self.clip_sigma, (med, mad)), "chroma"
 
@@ -584,10 +638,7 @@ class DispersionAltimeter:
         if quads:
             tables.append(self._share_table(_quadrants(signal), basis, denom,
                                             self.max_modes - limit))
-        q = np.concatenate([tb[0] for tb in tables])
-        # the table, with one wrap column for interpolation
-        q = np.concatenate([q, q[:, :1]], axis=1)
-        return {"q": q, "kx": np.concatenate([tb[1] for tb in tables]),
+        return {"q": np.concatenate([tb[0] for tb in tables]), "kx": np.concatenate([tb[1] for tb in tables]),
                 "ky": np.concatenate([tb[2] for tb in tables]),
                 "kappa": np.concatenate([tb[3] for tb in tables]), "frames": t}
 
@@ -601,16 +652,15 @@ class DispersionAltimeter:
         cos, sin = basis
         explained = np.zeros((idx.size, cos.shape[1]), dtype=np.float32)
         energy = np.zeros(idx.size)
-        for part in parts:
-            f = scipy.fft.rfft2(part * _hann2d(h, w), axes=(1, 2), workers=1).reshape(t, -1)
-            g = f[:, idx]  # (T, modes)
+        for g in _windowed_modes(parts, idx):  # (T, modes) complex per part
             xr, xi = np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag)
             # the temporal mean of every pixel, removed where it is cheap: per selected mode
             xr -= xr.mean(axis=0)
             xi -= xi.mean(axis=0)
             energy += np.einsum("tm,tm->m", xr, xr) + np.einsum("tm,tm->m", xi, xi)
             # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step, as real matrix
-            # products (T is short, so this beats an n_psi-point FFT per mode)
+            # products (T is short, so this beats an n_psi-point FFT per mode, and four
+            # real products beat one complex one)
             zr = xr.T @ cos
             zr -= xi.T @ sin
             zi = xr.T @ sin
@@ -659,14 +709,84 @@ class DispersionAltimeter:
             cache[key] = (kx, ky, kappa, band, even)
         return cache[key]
 
-    def _mode_values(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
-                     logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
-                     modes: np.ndarray | None = None, weighted: bool = False) -> np.ndarray:
-        """Explained share of every mode for candidates ``(log h, ux, uy)`` (same shape):
-        ``(candidates, modes)`` float32.
+    @staticmethod
+    def _lookup(p: dict[str, Any], modes: np.ndarray | None) -> dict[str, np.ndarray]:
+        """Float32 per-mode arrays for the table lookups of :meth:`_branch_values` (cached in
+        ``p``), of all modes or of ``modes``.  ``pair[m, j]`` holds ``q[m, j]`` and the
+        step to ``q[m, j + 1]`` as one complex number, so that one gather serves the linear
+        interpolation."""
+        if "_lookup" not in p:
+            q = p["q"]  # (modes, n_psi), periodic in the phase step
+            pair = np.empty(q.shape, dtype=np.complex64)
+            pair.real = q
+            step = pair.imag
+            np.subtract(q[:, 1:], q[:, :-1], out=step[:, :-1])
+            np.subtract(q[:, :1], q[:, -1:], out=step[:, -1:])
+            p["_lookup"] = {"pair": pair, "kx": p["kx"].astype(np.float32),
+                            "ky": p["ky"].astype(np.float32), "kappa": p["kappa"],
+                            "sqrt_kappa": np.sqrt(p["kappa"]).astype(np.float32)}
+        arrays = p["_lookup"]
+        return arrays if modes is None else {k: v[modes] for k, v in arrays.items()}
+
+    def _branch_values(self, p: dict[str, Any], fps: float, focal_px: float,
+                       logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                       modes: np.ndarray | None = None,
+                       turns: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """Explained share of every mode for candidates ``(log h, ux, uy)`` (same shape),
+        ``(candidates, modes)`` float32, and with ``turns`` the turn weight of the branch
+        each value took (:meth:`_mode_values`), else None.
 
         A candidate predicts each mode's phase step ``s omega(kappa f / h) / fps - kappa.u``
         (eq. (1)); each mode takes the better of the two directions ``s = +-1``.
+        """
+        a = self._lookup(p, modes)
+        pair = a["pair"]
+        n_modes, n_psi = pair.shape
+        to_bins = n_psi / (2.0 * np.pi)
+        logh = np.atleast_1d(logh)
+        if self.dispersion == "gravity":
+            # omega = sqrt(g kappa f / h): one outer product instead of a matrix of sqrt
+            scale = np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)
+            om = scale.astype(np.float32)[:, None] * a["sqrt_kappa"][None, :]
+        else:
+            om = (self.omega(a["kappa"][None, :] * focal_px / np.exp(logh)[:, None])
+                  * (to_bins / fps)).astype(np.float32)
+        dop = (np.atleast_1d(ux) * to_bins).astype(np.float32)[:, None] * a["kx"][None, :]
+        dop += (np.atleast_1d(uy) * to_bins).astype(np.float32)[:, None] * a["ky"][None, :]
+        flat = pair.ravel()
+        base = np.arange(n_modes, dtype=np.int64)[None, :] * n_psi
+        best = wt = None
+        # phase steps in table bins, s = +1 and -1 (the second overwrites om, done with)
+        for pos in (om - dop, np.negative(np.add(om, dop, out=om), out=om)):
+            jf = np.floor(pos)
+            frac = pos - jf
+            j = jf.astype(np.int64)
+            if n_psi & (n_psi - 1) == 0:
+                j &= n_psi - 1  # the table's period, also for negative steps
+            else:
+                j %= n_psi
+            if turns:
+                # cycles the predicted phase step turns over the clip, minus half a cycle
+                w = j.astype(np.float32)
+                w += frac
+                np.minimum(w, n_psi - w, out=w)
+                w *= np.float32(p["frames"] / n_psi)
+                w -= np.float32(0.5)
+                np.clip(w, 0.0, 1.0, out=w)
+            j += base
+            g = flat[j]
+            val = g.imag * frac
+            val += g.real
+            if turns:
+                wt = w if wt is None else np.where(val > best, w, wt)
+            best = val if best is None else np.maximum(best, val)
+        return best, wt
+
+    def _mode_values(self, p: dict[str, Any], fps: float, focal_px: float,
+                     logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                     modes: np.ndarray | None = None, weighted: bool = False) -> np.ndarray:
+        """Explained share of every mode for candidates ``(log h, ux, uy)`` (same shape):
+        ``(candidates, modes)`` float32 (:meth:`_branch_values`).
 
         ``weighted``: each value is weighted by how far the predicted phase step turns over
         the clip, ``clip(cycles - 0.5, 0, 1)``, and a candidate's row is rescaled so that its
@@ -674,44 +794,12 @@ class DispersionAltimeter:
         (nearly) stand still in the image cannot tell the wave from the optics' slow
         products, which fill the inside of the dispersion shell (:meth:`_fit_aided`).
         """
-        q = p["q"] if modes is None else p["q"][modes]
-        kappa = p["kappa"] if modes is None else p["kappa"][modes]
-        kx = p["kx"] if modes is None else p["kx"][modes]
-        ky = p["ky"] if modes is None else p["ky"][modes]
-        n_psi = q.shape[1] - 1
-        to_bins = n_psi / (2.0 * np.pi)
-        logh = np.atleast_1d(logh)[:, None]
-        if self.dispersion == "gravity":
-            # omega = sqrt(g kappa f / h): one outer product instead of a matrix of sqrt
-            om = (np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)) \
-                * np.sqrt(kappa)[None, :]
-        else:
-            om = self.omega(kappa[None, :] * focal_px / np.exp(logh)) * (to_bins / fps)
-        dop = (np.atleast_1d(ux)[:, None] * (kx * to_bins)[None, :]
-               + np.atleast_1d(uy)[:, None] * (ky * to_bins)[None, :])
-        flat = q.ravel()
-        base = (np.arange(q.shape[0]) * q.shape[1])[None, :]
-        best = wt = None
-        for pos in (om - dop, -om - dop):  # phase steps in table bins, s = +1 and -1
-            pos = pos.astype(np.float32)
-            pos -= np.floor(pos * np.float32(1.0 / n_psi)) * np.float32(n_psi)
-            j = np.minimum(pos.astype(np.int64), n_psi - 1)
-            frac = pos - j
-            j += base
-            lo = flat[j]
-            val = lo + (flat[j + 1] - lo) * frac
-            if weighted:
-                # cycles the predicted phase step turns over the clip, minus half a cycle
-                turn = np.minimum(pos, n_psi - pos) * np.float32(p["frames"] / n_psi) - 0.5
-                w = np.clip(turn, 0.0, 1.0)
-                if wt is not None:
-                    w = np.where(val > best, w, wt)
-                wt = w
-            best = val if best is None else np.maximum(best, val)
-        if weighted:
-            best = best * wt
-            best *= (wt.shape[1] / np.maximum(wt.sum(axis=1, keepdims=True), 1e-9)).astype(
-                np.float32)
+        best, wt = self._branch_values(p, fps, focal_px, logh, ux, uy, modes, turns=weighted)
+        if wt is None:
+            return best
+        best *= wt
+        best *= (wt.shape[1] / np.maximum(wt.sum(axis=1, keepdims=True), 1e-9)).astype(
+            np.float32)
         return best
 
     def _score(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
@@ -747,6 +835,12 @@ class DispersionAltimeter:
         -------
         DispersionResult
         """
+        with _one_blas_thread():
+            return self._estimate(frames, fps=fps, focal_px=focal_px,
+                                  velocity_mps=velocity_mps)
+
+    def _estimate(self, frames: Any, *, fps: float, focal_px: float,
+                  velocity_mps: tuple[float, float] | None) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
@@ -829,7 +923,10 @@ class DispersionAltimeter:
         # the coarse scans need no more than a fixed subsample of the modes
         sub = np.arange(0, p["kappa"].size, max(1, p["kappa"].size // 300))
         ux, uy = u_of(grid)
-        weighted = self._score(p, fps, focal_px, grid, ux, uy, modes=sub, weighted=True)
+        # both coarse scans from one pass: weighted (picks the peak) and plain (grades it)
+        vals, wt = self._branch_values(p, fps, focal_px, grid, ux, uy, modes=sub, turns=True)
+        scan = vals.mean(axis=1)
+        weighted = np.sum(vals * wt, axis=1) / np.maximum(wt.sum(axis=1), 1e-9)
         i = _most_prominent(weighted, grid, lo - step, hi + step)[0]
         local = grid[i] + np.linspace(-4.0, 4.0, 17) * step
         vals = self._mode_values(p, fps, focal_px, local, *u_of(local))
@@ -838,7 +935,6 @@ class DispersionAltimeter:
         # the spread over mode groups is measured on the points around the peak
         j = int(np.clip(np.argmax(mean), 5, local.size - 6))
         local, vals = local[j - 5:j + 6], vals[j - 5:j + 6]
-        scan = self._score(p, fps, focal_px, grid, ux, uy, modes=sub)
         _, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step, near=logh,
                                                   within=2.0 * step)
         ux, uy = u_of(np.array([logh]))

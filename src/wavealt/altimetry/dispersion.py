@@ -302,8 +302,8 @@ class DispersionAltimeter:
     quadrant_modes : bool
         Add the modes of the four image quadrants to the whole frame's (:meth:`_periodogram`).
         With the weighted aided scan (paper renderer, 10 frames, ``bench_dispersion.py``,
-        100 scenes): median relative error clean 0.37 -> 0.24 %; costs about 7 ms of 31
-        per 10-frame 256^2 window on one core.
+        100 scenes): median relative error clean 0.37 -> 0.24 %; costs about 8 of 20 ms per
+        10-frame 256^2 window on one core.
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
@@ -1115,7 +1115,7 @@ def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: 
     second of frames (at least 10): the blind fit needs about a second to separate the waves
     from the optics' slower products, and the aided fit, which works from 10 frames, is
     several times more accurate with 1 s (paper renderer, 1-15 m: 0.12 % against 1.5 %
-    relative MAE clean, 0.89 % against 2.4 % glinty; ``bench_dispersion.py``).  The
+    relative MAE clean, 0.14 % against 1.8 % glinty; ``bench_dispersion.py``).  The
     summary holds the quality-weighted median altitude of the windows (its spread as
     ``altitude_std_m``), the median velocity, the total ``frames``, the mean ``quality``
     and the ``windows``.

@@ -287,9 +287,9 @@ class DispersionAltimeter:
         waves (chroma alone: 127 % clean), but those fits flag themselves.
     glint_r2 : float
         ``"auto"`` fits the chroma first when the squared correlation of luminance and
-        chroma over the frame's pixels is below this.  White glint adds to the luminance and not to
-        the chroma: on the paper renderer R^2 is 0.3-0.99 (median 0.65) on clean frames and
-        0-0.5 (median 0.08) on glinty ones.
+        chroma over the frame's pixels is below this.  White glint adds to the luminance and
+        not to the chroma: on the paper renderer R^2 is 0.3-0.99 (median 0.65) on clean
+        frames and 0-0.5 (median 0.08) on glinty ones.
     n_psi : int, optional
         Phase steps tabulated by the periodogram; default: enough to resolve its peak
         (``2 pi / T`` wide) with about six steps, at least 64.
@@ -646,9 +646,8 @@ class DispersionAltimeter:
         if quads:
             tables.append(self._share_table(_quadrants(signal), basis, denom,
                                             self.max_modes - limit))
-        return {"q": np.concatenate([tb[0] for tb in tables]), "kx": np.concatenate([tb[1] for tb in tables]),
-                "ky": np.concatenate([tb[2] for tb in tables]),
-                "kappa": np.concatenate([tb[3] for tb in tables]), "frames": t}
+        q, kx, ky, kappa = (np.concatenate(cols) for cols in zip(*tables))
+        return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t}
 
     def _share_table(self, parts: list[np.ndarray], basis: tuple[np.ndarray, np.ndarray],
                      denom: np.ndarray, limit: int) -> tuple[np.ndarray, ...]:
@@ -719,8 +718,9 @@ class DispersionAltimeter:
 
     @staticmethod
     def _lookup(p: dict[str, Any], modes: np.ndarray | None) -> dict[str, np.ndarray]:
-        """Float32 per-mode arrays for the table lookups of :meth:`_branch_values` (cached in
-        ``p``), of all modes or of ``modes``.  ``pair[m, j]`` holds ``q[m, j]`` and the
+        """Per-mode arrays for the table lookups of :meth:`_branch_values` (cached in ``p``;
+        float32 but for ``kappa``, which the general dispersion relation takes), of all modes
+        or of ``modes``.  ``pair[m, j]`` holds ``q[m, j]`` and the
         step to ``q[m, j + 1]`` as one complex number, so that one gather serves the linear
         interpolation."""
         if "_lookup" not in p:

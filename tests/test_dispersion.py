@@ -114,7 +114,9 @@ def test_gain_offset_invariance_and_gray_rgb() -> None:
     b = est.estimate(0.2 + 0.5 * frames, fps=30.0, focal_px=focal_px)
     c = est.estimate(np.repeat(frames[..., None], 3, axis=-1), fps=30.0, focal_px=focal_px)
     assert b.altitude_m == pytest.approx(a.altitude_m, rel=1e-3)
-    assert c.altitude_m == pytest.approx(a.altitude_m, rel=1e-6)
+    # the RGB mean x (1/3) 3 differs from x by float32 rounding, which the blind search
+    # carries to ~1e-5 relative
+    assert c.altitude_m == pytest.approx(a.altitude_m, rel=1e-4)
 
 
 def test_uint8_and_non_contiguous_input() -> None:
@@ -303,26 +305,32 @@ def test_weighted_scan_values_follow_the_predicted_turn() -> None:
     assert np.all(flat == 0.0)
 
 
-def test_periodogram_adds_quadrant_modes_within_max_modes() -> None:
-    """With quadrant modes the table holds max_modes modes in all, half of them from the
-    quadrants (whose wavenumber bins are twice as coarse); without them, or on frames
-    smaller than 64 px, the whole frame's alone."""
+def test_periodogram_takes_the_corner_tiles() -> None:
+    """The table is taken over the four corner tiles (side: the largest fast FFT size within
+    corner_tiles of the frame's), so pixels outside them change nothing; with
+    corner_tiles=0, or tiles under 32 px, over the whole frame."""
     rng = np.random.default_rng(5)
     frames = rng.normal(size=(6, 128, 128)).astype(np.float32)
-    both = DispersionAltimeter(max_modes=600)._periodogram(frames)
-    alone = DispersionAltimeter(max_modes=600, quadrant_modes=False)._periodogram(frames)
-    assert both["q"].shape[0] == alone["q"].shape[0] == 600
-    assert both["frames"] == alone["frames"] == 6
-    # quadrant bins: multiples of 2 pi / 64; whole-frame bins: of 2 pi / 128
-    on_quad_grid = np.isclose(np.mod(both["kx"] * 64 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
-    assert on_quad_grid[300:].all()
-    assert not on_quad_grid[:300].all()
-    small = DispersionAltimeter(max_modes=600)._periodogram(frames[:, :48, :48])
-    assert small["q"].shape[0] == DispersionAltimeter(
-        max_modes=600, quadrant_modes=False)._periodogram(frames[:, :48, :48])["q"].shape[0]
-    # every table row is a share in [0, 1] at the n_psi phase steps of one turn
-    assert both["q"].shape[1] == 64
-    assert np.all((both["q"] >= 0) & (both["q"] <= 1 + 1e-5))
+    est = DispersionAltimeter(max_modes=600)
+    corners = est._periodogram(frames)
+    assert corners["q"].shape == (600, 64) and corners["frames"] == 6
+    assert np.all((corners["q"] >= 0) & (corners["q"] <= 1 + 1e-5))
+    # 0.4 x 128 = 51 -> 48 px tiles: every wavenumber on the 2 pi / 48 grid
+    assert np.allclose(np.mod(corners["kx"] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    changed = frames.copy()
+    changed[:, 48:80, :] = rng.normal(size=(6, 32, 128))  # the band between the tiles
+    changed[:, :, 48:80] = 7.0
+    assert np.array_equal(est._periodogram(changed)["q"], corners["q"])
+    whole = DispersionAltimeter(max_modes=600, corner_tiles=0.0)._periodogram(frames)
+    assert not np.array_equal(whole["q"], corners["q"])
+    assert not np.allclose(np.mod(whole["kx"] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    small = frames[:, :64, :64]  # 0.4 x 64 = 25 -> 24 px tiles: too small, the whole frame
+    assert np.array_equal(est._periodogram(small)["q"],
+                          DispersionAltimeter(max_modes=600, corner_tiles=0.0)
+                          ._periodogram(small)["q"])
+    for bad in (0.6, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="corner_tiles"):
+            DispersionAltimeter(corner_tiles=bad)
 
 
 def test_gravity_shortcut_matches_the_dispersion_relation() -> None:

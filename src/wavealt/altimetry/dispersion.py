@@ -652,7 +652,9 @@ class DispersionAltimeter:
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
         arg = np.outer(np.arange(t), psi)
-        basis = (np.cos(arg).astype(np.float32), np.sin(arg).astype(np.float32))
+        cos, sin = np.cos(arg).T, np.sin(arg).T  # (n_psi, T)
+        # [Re z; Im z] = basis @ [Re X; Im X] for z_j = sum_t X_t e^{+i psi_j t}
+        basis = np.block([[cos, -sin], [sin, cos]]).astype(np.float32)
         dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
         denom = np.maximum(t - dirichlet / t, 1e-9)
         corners = _fast_len(int(self.corner_tiles * min(h, w))) >= 32
@@ -660,33 +662,24 @@ class DispersionAltimeter:
         q, kx, ky, kappa = self._share_table(parts, basis, denom, self.max_modes)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t}
 
-    def _share_table(self, parts: list[np.ndarray], basis: tuple[np.ndarray, np.ndarray],
-                     denom: np.ndarray, limit: int) -> tuple[np.ndarray, ...]:
+    def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray, limit: int) -> tuple[np.ndarray, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts; and the modes' ``kx, ky, kappa``."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
-        cos, sin = basis
-        explained = np.zeros((idx.size, cos.shape[1]), dtype=np.float32)
-        energy = np.zeros(idx.size)
-        for g in _windowed_modes(parts, idx):  # (T, modes) complex per part
-            xr, xi = np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag)
-            # the temporal mean of every pixel, removed where it is cheap: per selected mode
-            xr -= xr.mean(axis=0)
-            xi -= xi.mean(axis=0)
-            energy += np.einsum("tm,tm->m", xr, xr) + np.einsum("tm,tm->m", xi, xi)
-            # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step, as real matrix
-            # products (T is short, so this beats an n_psi-point FFT per mode, and four
-            # real products beat one complex one)
-            zr = xr.T @ cos
-            zr -= xi.T @ sin
-            zi = xr.T @ sin
-            zi += xi.T @ cos
-            zr *= zr
-            zi *= zi
-            explained += zr
-            explained += zi
+        g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
+        # the temporal mean of every pixel, removed where it is cheap: per selected mode
+        g -= g.mean(axis=1, keepdims=True)
+        x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
+        energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
+        # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step as one real matrix
+        # product per part (T is short: this beats an n_psi-point FFT per mode)
+        z = np.matmul(basis, x)  # (parts, 2 n_psi, modes): Re z over Im z
+        z *= z
+        z = z.sum(axis=0)
+        n_psi = denom.size
+        explained = np.ascontiguousarray((z[:n_psi] + z[n_psi:]).T)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         if not keep.all():
             idx, explained, energy = idx[keep], explained[keep], energy[keep]

@@ -13,9 +13,10 @@ with ``s = +1`` for a wave travelling along ``+kappa`` and ``-1`` against it, an
 ``omega = a sqrt(|kappa|)`` with ``a^2 = g focal_px / altitude_m`` (Spencer, Shah & Guha,
 IEEE TIP 2006, recovered image scale this way).
 
-The estimator tabulates, for every spatial mode, the share of its temporal energy that one
-travelling wave explains as a function of the phase step per frame (a whitened, sharpened
-periodogram of the mode's complex amplitudes over the clip), and scores a candidate
+The estimator tabulates, for every spatial mode of the frame's four corner tiles (where the
+image is closest to linear in slope), the share of its temporal energy that one travelling
+wave explains as a function of the phase step per frame (a whitened, sharpened periodogram
+of the mode's complex amplitudes over the clip), and scores a candidate
 ``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts:
 
 * **aided** (the camera's velocity over the water known, e.g. from satellite navigation):
@@ -643,10 +644,10 @@ class DispersionAltimeter:
         Toward the edges the term linear in slope (slope times view tilt) dominates, and a
         tile within one corner sees that tilt with one sign (across the centre it changes
         sign, an odd modulation that smears every mode over its neighbours).  Paper
-        renderer, 10 frames, aided, 100 scenes each of seeds 5 and 11 (``ev3.py``, frames
-        stored as float16), relative MAE clean 1.49 / 1.08 % with the whole frame plus its
-        quadrants, 0.92 / 0.82 % with corner tiles of 0.4; glinty 3.10 / 1.46 -> 1.52 /
-        1.14 %.
+        renderer, 10 frames, aided, 100 scenes each of seeds 5, 7 and 11 (frames stored as
+        float16), relative MAE with the whole frame plus its quadrants -> with corner tiles
+        of 0.4: clean 1.49 / 0.77 / 1.08 -> 0.96 / 0.50 / 0.85 %, glinty 3.10 / 1.19 / 1.46
+        -> 1.66 / 1.01 / 1.37 %.
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
@@ -662,7 +663,8 @@ class DispersionAltimeter:
         q, kx, ky, kappa = self._share_table(parts, basis, denom, self.max_modes)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t}
 
-    def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray, limit: int) -> tuple[np.ndarray, ...]:
+    def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
+                     limit: int) -> tuple[np.ndarray, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts; and the modes' ``kx, ky, kappa``."""

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import (
-    DispersionAltimeter, DispersionResult, _wrap, altitude_series, estimate_altitude,
+    TRUSTED_QUALITY, DispersionAltimeter, DispersionResult, _wrap, altitude_series,
+    estimate_altitude,
 )
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
@@ -401,3 +402,23 @@ def test_auto_signal_measures_white_glint_through_the_chroma() -> None:
     assert res.quality >= 0.3
     assert DispersionAltimeter._colour(data.clean)[1] >= auto.glint_r2
     assert auto.estimate(data.clean, **kw) == luma.estimate(data.clean, **kw)
+
+
+def test_auto_signal_checks_a_middling_chroma_fit_against_the_luminance() -> None:
+    """The realistic preset's clean frames hold colour that does not follow the waves: here
+    the chroma explains little of the luminance (R^2 < glint_r2) and its fit read 4.9 m as
+    2.0 m with quality 0.74.  "auto" also fits the luminance when the chroma fit grades below
+    CHROMA_CHECK_QUALITY and keeps the better graded: the luminance's, within 3 %."""
+    from wavealt.altimetry.dispersion import CHROMA_CHECK_QUALITY
+
+    cfg = preset_config("realistic", sequences=40, size=256, frames=10, seed=11)
+    sc = cfg.sample_scenario(34)
+    frames = generate_sequence(sc, cfg).clean
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
+    assert DispersionAltimeter._colour(frames)[1] < 0.3
+    chroma = DispersionAltimeter(signal="chroma").estimate(frames, **kw)
+    assert TRUSTED_QUALITY <= chroma.quality < CHROMA_CHECK_QUALITY
+    auto = DispersionAltimeter().estimate(frames, **kw)
+    assert auto == DispersionAltimeter(signal="luma").estimate(frames, **kw)
+    assert abs(auto.altitude_m / sc.altitude_m - 1.0) < 0.03
+    assert auto.quality > chroma.quality

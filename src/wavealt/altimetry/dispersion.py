@@ -954,6 +954,9 @@ class DispersionAltimeter:
         The quality is the prominence of the *unweighted* scan's peak at the estimate (none
         within two steps: no quality), so an estimate that only the weighting found is not
         trusted.
+
+        Returns the fit at the weighted scan's peak and, where a shrunk weighted scan (see
+        below) peaks elsewhere, the fit there too; :meth:`_fit_signal` grades both.
         """
         vx, vy = (float(v) for v in velocity_mps)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
@@ -973,8 +976,8 @@ class DispersionAltimeter:
         # both coarse scans from one pass: weighted (picks the peak) and plain (grades it)
         vals, wt = self._branch_values(p, fps, focal_px, grid, ux, uy, modes=sub, turns=True)
         scan = vals.mean(axis=1)
-        wsum = np.sum(vals * wt, axis=1)
-        i = _most_prominent(wsum / np.maximum(wt.sum(axis=1), 1e-9), grid, lo - step, hi + step)[0]
+        wsum, wtot = np.sum(vals * wt, axis=1), wt.sum(axis=1)
+        i = _most_prominent(wsum / np.maximum(wtot, 1e-9), grid, lo - step, hi + step)[0]
         fits = [self._fine_aided(p, fps, focal_px, grid[i], step, u_of, scan, grid)]
         # The weighted mean of a candidate at which few modes turn rests on few modes: on
         # small frames (128 px, 1-5 m) it made spurious peaks at 5-15 times the altitude, and
@@ -982,7 +985,7 @@ class DispersionAltimeter:
         # of the modes, the true peak stands out there; where that peak lies elsewhere it is
         # refined too, and kept when trusted and more so (:meth:`_fit_signal`).
         n0 = 0.1 * wt.shape[1]
-        shrunk = (wsum + n0 * float(np.median(scan))) / (wt.sum(axis=1) + n0)
+        shrunk = (wsum + n0 * float(np.median(scan))) / (wtot + n0)
         k = _most_prominent(shrunk, grid, lo - step, hi + step)[0]
         if abs(k - i) > 4:
             fits.append(self._fine_aided(p, fps, focal_px, grid[k], step, u_of, scan, grid))

@@ -322,7 +322,8 @@ class DispersionAltimeter:
     corner_tiles : float
         Side of the four corner tiles the periodogram is taken over, as a fraction of the
         frame's (0.5: the quadrants; :meth:`_periodogram`); 0, or tiles under 32 px, for
-        the whole frame.
+        the whole frame.  An aided fit on the tiles that flags itself is tried on the whole
+        frame too (:meth:`_fit_signal`).
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",

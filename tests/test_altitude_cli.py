@@ -33,16 +33,101 @@ def _run(capsys, argv: list[str]) -> tuple[int, str, str]:
 
 
 def test_frame_folder_json(tmp_path, capsys, frames) -> None:
+    """Blind, 12 frames of 64 px at 3 m: the estimate is within 4 of its own sigmas of the
+    truth, or it says it is not to be trusted."""
     clip, focal_px = frames
     write_frames_folder(tmp_path / "f", clip)
     code, out, _ = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
-                                 "--focal-px", str(focal_px), "--json", "--window", "12"])
+                                 "--focal-px", str(focal_px), "--json", "--window", "12",
+                                 "--dispersion", "gravity"])
     assert code == 0
     d = json.loads(out)
     assert d["frames"] == 12 and d["windows"] == 1
-    for key in ("altitude_m", "altitude_std_m", "velocity_mps", "quality"):
-        assert key in d
-    assert 0.0 <= d["quality"] <= 1.0 and d["altitude_m"] > 0
+    assert 0.0 <= d["quality"] <= 1.0 and d["altitude_std_m"] > 0
+    assert d["mode"] == "blind" and isinstance(d["trusted"], bool)
+    assert abs(d["altitude_m"] - 3.0) <= 4.0 * d["altitude_std_m"] or not d["trusted"]
+    assert d["trusted_windows"] == int(d["trusted"])
+    assert (d["reason"] is None) == d["trusted"]
+
+
+@pytest.mark.parametrize(("velocity", "mode"), [
+    ([], "blind"),
+    (["--velocity-mps", "0,0", "--velocity-sigma-mps", "0.5"], "prior"),
+    (["--velocity-mps", "0,0"], "exact"),
+    (["--velocity-mps", "0,0", "--velocity-sigma-mps", "0"], "exact"),
+])
+def test_json_carries_the_contract(tmp_path, capsys, frames, velocity, mode) -> None:
+    """The design contract's keys, the mode that produced the estimate, and the camera's
+    velocity under both its names.  The camera hovers at 3 m over still water: the estimate
+    is within 4 of its sigmas of that, or marked untrusted with a reason."""
+    clip, focal_px = frames
+    write_frames_folder(tmp_path / "f", clip)
+    code, out, err = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
+                                   "--focal-px", str(focal_px), "--dispersion", "gravity",
+                                   "--json", *velocity])
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["mode"] == mode
+    assert isinstance(d["trusted"], bool) and isinstance(d["altitude_m"], float)
+    assert d["altitude_std_m"] > 0
+    assert len(d["camera_velocity_mps"]) == 2 and d["velocity_mps"] == d["camera_velocity_mps"]
+    assert abs(d["altitude_m"] - 3.0) <= 4.0 * d["altitude_std_m"] or not d["trusted"]
+    assert (d["reason"] is None) == d["trusted"]
+    assert d["trusted_windows"] == int(d["trusted"]) and d["windows"] == 1
+    if mode == "exact":  # the velocity is given, not fitted
+        assert d["camera_velocity_mps"] == [0.0, 0.0]
+
+
+def test_text_output_says_whether_to_trust_it(tmp_path, capsys, frames) -> None:
+    clip, focal_px = frames
+    write_frames_folder(tmp_path / "f", clip)
+    code, out, _ = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
+                                 "--focal-px", str(focal_px), "--dispersion", "gravity",
+                                 "--velocity-mps", "0.5,-0.25", "--velocity-sigma-mps", "0.2"])
+    assert code == 0
+    assert out.startswith("altitude:") and "TRUSTED" in out
+    assert "mode: prior (gravity dispersion)" in out
+    assert "camera velocity over the water: (" in out and "image +x columns, +y rows" in out
+    # a frozen clip (one frame repeated) holds no moving waves: printed, but marked
+    write_frames_folder(tmp_path / "frozen", np.repeat(clip[:1], 12, axis=0))
+    code, out, _ = _run(capsys, ["altitude", str(tmp_path / "frozen"), "--fps", "30",
+                                 "--focal-px", str(focal_px), "--velocity-mps", "0,0"])
+    assert code == 0
+    assert "altitude:" in out and "NOT TRUSTED (" in out and "0 trusted" in out
+
+
+@pytest.fixture(scope="module")
+def paper_dataset(tmp_path_factory: pytest.TempPathFactory):
+    """A paper-preset dataset written by `wavealt simulate`: 2 sequences of 12 frames, 64 px,
+    the camera hovering at 3 m."""
+    root = tmp_path_factory.mktemp("altitude-cli") / "ds"
+    main(["simulate", str(root), "--sequences", "2", "--size", "64", "--frames", "12",
+          "--altitude-m", "3,3", "--wind-speed-mps", "7,7", "--camera-speed-mps", "0",
+          "--no-figures"])
+    return root
+
+
+def test_auto_dispersion_of_a_dataset_folder_is_its_renderers(tmp_path, capsys,
+                                                               paper_dataset) -> None:
+    """A sequence folder of a paper-preset dataset is read with the paper renderer's
+    dispersion relation (gravity); the same frames elsewhere are taken for real water."""
+    seq = sorted((paper_dataset / "clean").iterdir())[0]
+    copy = tmp_path / "elsewhere"
+    copy.mkdir()
+    for f in seq.iterdir():
+        (copy / f.name).write_bytes(f.read_bytes())
+
+    def run(folder, dispersion: str) -> dict:
+        code, out, err = _run(capsys, ["altitude", str(folder), "--fps", "30", "--fov-deg", "60",
+                                       "--velocity-mps", "0,0", "--json",
+                                       "--dispersion", dispersion])
+        assert code == 0, err
+        return json.loads(out)
+
+    gravity, capillary = run(seq, "gravity"), run(seq, "gravity-capillary")
+    assert gravity != capillary  # the two relations read these frames differently
+    assert run(seq, "auto") == gravity
+    assert run(copy, "auto") == capillary
 
 
 def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
@@ -59,7 +144,10 @@ def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
     assert code == 0 and "altitude:" in out
     rows = (out_dir / "altitude.csv").read_text().splitlines()
     assert len(rows) == 1 + 3  # windows at 0, 3, 6
-    assert json.loads((out_dir / "altitude.json").read_text())["summary"]["windows"] == 3
+    assert {"trusted", "mode", "reason", "camera_vx_mps", "camera_vy_mps"} <= set(
+        rows[0].split(","))
+    summary = json.loads((out_dir / "altitude.json").read_text())["summary"]
+    assert summary["windows"] == 3 and summary["mode"] == "blind"
     assert (out_dir / "altitude.png").stat().st_size > 0
 
 
@@ -67,11 +155,24 @@ def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
     (["--fps", "30"], "exactly one of --focal-px and --fov-deg"),
     (["--fps", "30", "--focal-px", "50", "--fov-deg", "60"], "exactly one"),
     (["--fps", "-1", "--focal-px", "50"], "fps"),
+    # a single number is not read as (1, 1)
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "1"], "--velocity-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "1,2,3"], "--velocity-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "nan,0"], "--velocity-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "east"], "--velocity-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-sigma-mps", "0.5"],
+     "--velocity-sigma-mps needs --velocity-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "0,0", "--velocity-sigma-mps", "-1"],
+     "--velocity-sigma-mps"),
+    (["--fps", "30", "--focal-px", "50", "--velocity-mps", "0,0", "--velocity-sigma-mps", "inf"],
+     "--velocity-sigma-mps"),
+    (["--fps", "30", "--focal-px", "50", "--dispersion", "shallow"], "--dispersion"),
 ])
 def test_bad_arguments(tmp_path, capsys, frames, argv_tail, match) -> None:
     write_frames_folder(tmp_path / "f", frames[0])
-    code, _, err = _run(capsys, ["altitude", str(tmp_path / "f"), *argv_tail])
+    code, out, err = _run(capsys, ["altitude", str(tmp_path / "f"), *argv_tail])
     assert code == 2 and match in err and "Traceback" not in err
+    assert err.startswith("wavealt: error:") and err.count("\n") == 1 and out == ""
 
 
 def test_missing_and_mixed_inputs(tmp_path, capsys, frames) -> None:

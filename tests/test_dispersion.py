@@ -8,36 +8,37 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import (
-    TRUSTED_QUALITY, DispersionAltimeter, DispersionResult, _wrap, altitude_series,
-    estimate_altitude,
+    TRUSTED_QUALITY, DispersionAltimeter, DispersionResult, _wrap, estimate_altitude,
 )
+from wavealt.altimetry.series import altitude_series
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
 
 
 def _linear_frames(h: float, wind: float, speed: float, direction: float, *, size: int = 64,
                    seed: int = 1) -> tuple[np.ndarray, float, tuple[float, float]]:
-    """Frames linear in the surface slope (an idealised camera), in [0, 1]."""
+    """Frames linear in the surface slope (an idealised camera), in [0, 1]; the focal length
+    and the camera's velocity over the (still) water."""
     cfg = preset_config("paper", size=size, altitude_m=(h, h), wind_speed_mps=(wind, wind),
                         camera_speed_mps=(speed, speed), camera_dir_deg=(direction, direction))
     sc = cfg.sample_scenario(seed)
     data = generate_sequence(sc, cfg)
     x = data.slope_x + 0.7 * data.slope_y
     x = (x - x.min()) / (x.max() - x.min())
-    vx, vy = sc.camera_velocity_mps
-    return x.astype(np.float32), cfg.focal_px, (-vx, -vy)
+    return x.astype(np.float32), cfg.focal_px, sc.camera_velocity_mps
 
 
 @pytest.mark.parametrize(("h", "wind", "speed", "direction"),
                          [(1.5, 6.0, 0.0, 0.0), (4.0, 8.0, 0.5, 60.0), (10.0, 10.0, 1.0, 200.0)])
 def test_recovers_altitude_and_drift(h: float, wind: float, speed: float, direction: float) -> None:
-    frames, focal_px, water_v = _linear_frames(h, wind, speed, direction, size=128)
+    frames, focal_px, camera_v = _linear_frames(h, wind, speed, direction, size=128)
     res = estimate_altitude(frames, fps=30.0, focal_px=focal_px, dispersion="gravity")
     assert isinstance(res, DispersionResult)
     assert abs(res.altitude_m - h) / h < 0.06
     assert res.frames == 10 and res.n_modes > 20
-    # velocity of the water relative to the camera: minus the camera's
-    assert np.allclose(res.velocity_mps, water_v, atol=0.08 + 0.05 * speed)
+    # the camera's velocity relative to the water (still here): the camera's own
+    assert np.allclose(res.camera_velocity_mps, camera_v, atol=0.08 + 0.05 * speed)
+    assert res.mode == "blind"
     # the uncertainty it reports covers its error (blind: drift and altitude trade off)
     assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m
 
@@ -58,7 +59,8 @@ def test_aided_recovers_altitude_through_the_renderer_and_glint(h, wind, speed, 
         assert abs(res.altitude_m - h) / h < tol
         assert res.quality > 0.3
         assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m + 0.01 * h
-        assert np.allclose(res.velocity_mps, [-v for v in sc.camera_velocity_mps], atol=1e-9)
+        assert np.allclose(res.camera_velocity_mps, sc.camera_velocity_mps, atol=1e-9)
+        assert res.mode == "exact" and res.trusted and res.reason is None
 
 
 @pytest.mark.parametrize(("index", "conditions"), [(5, ("glinty",)), (17, ("clean", "glinty"))])
@@ -154,7 +156,7 @@ def test_blind_recovers_altitude_and_drift_through_the_renderer_in_one_second(h,
     assert res.quality >= 0.3
     assert abs(res.altitude_m - h) / h < 0.02
     assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m
-    assert np.allclose(res.velocity_mps, [-v for v in sc.camera_velocity_mps], atol=0.05)
+    assert np.allclose(res.camera_velocity_mps, sc.camera_velocity_mps, atol=0.05)
     res = est.estimate(data.glinty, fps=cfg.fps, focal_px=cfg.focal_px)
     assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m or res.quality < 0.3
 
@@ -185,9 +187,10 @@ def test_to_dict_is_json() -> None:
     frames, focal_px, _ = _linear_frames(2.0, 6.0, 0.0, 0.0)
     d = estimate_altitude(frames, fps=30.0, focal_px=focal_px).to_dict()
     back = json.loads(json.dumps(d))
-    assert set(back) >= {"altitude_m", "altitude_std_m", "velocity_mps", "quality", "frames",
-                         "n_modes"}
-    assert len(back["velocity_mps"]) == 2
+    assert set(back) >= {"altitude_m", "altitude_std_m", "camera_velocity_mps", "quality",
+                         "trusted", "reason", "mode", "frames", "n_modes", "signal"}
+    assert len(back["camera_velocity_mps"]) == 2
+    assert isinstance(back["trusted"], bool) and back["mode"] == "blind"
 
 
 def test_noise_only_is_flagged() -> None:

@@ -123,9 +123,43 @@ def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
     assert est.altimeter.dispersion == "gravity"
     aided = parse_estimator("dispersion-aided:gravity-capillary")
     assert aided.aided and aided.name == "dispersion (gravity-capillary, velocity known)"
-    for bad in ("dispersion:water", "dispersion-aided:x"):
+    assert aided.velocity_sigma_mps == 0.0
+    for bad in ("dispersion:water", "dispersion-aided:x", "dispersion-prior:1:2",
+                "dispersion-prior:0.5:water"):
         with pytest.raises(ValueError, match=f"unknown estimator '{bad}'"):
             parse_estimator(bad)
+
+
+@pytest.mark.parametrize(("spec", "sigma", "dispersion"), [
+    ("dispersion-prior", 1.0, None), ("dispersion-prior:0.3", 0.3, None),
+    ("dispersion-prior:0.3:gravity", 0.3, "gravity"),
+    ("dispersion-prior:gravity-capillary", 1.0, "gravity-capillary")])
+def test_dispersion_prior_spec(spec, sigma, dispersion) -> None:
+    from wavealt.evaluation import DispersionEstimator
+
+    est = parse_estimator(spec)
+    assert isinstance(est, DispersionEstimator) and est.aided
+    assert est.velocity_sigma_mps == sigma and est.dispersion == dispersion
+    assert f"velocity prior ±{sigma:g} m/s" in est.name
+    with pytest.raises(ValueError, match="velocity_sigma_mps needs aided"):
+        DispersionEstimator(velocity_sigma_mps=sigma)
+
+
+@pytest.mark.parametrize("bad", ["dispersion-prior:0", "dispersion-prior:-1",
+                                 "dispersion-prior:nan", "dispersion-prior:fast"])
+def test_dispersion_prior_spec_needs_a_positive_sigma(bad) -> None:
+    with pytest.raises(ValueError, match="SIGMA .* must be a number > 0"):
+        parse_estimator(bad)
+
+
+def test_dispersion_of_input_reads_the_dataset_of_a_sequence_folder(tiny_dataset,
+                                                                   tmp_path) -> None:
+    from wavealt.evaluation import dispersion_of_input
+
+    seq = next(p for p in sorted((tiny_dataset / "clean").iterdir()) if p.is_dir())
+    assert dispersion_of_input(seq) == "gravity"  # the paper renderer's waves
+    assert dispersion_of_input(tmp_path) == "gravity-capillary"  # real water
+    assert dispersion_of_input(tmp_path / "clip.mp4") == "gravity-capillary"
 
 
 def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> None:
@@ -142,7 +176,8 @@ def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> N
         m = res.metrics[c]
         q = res.predictions[c]["quality"]
         assert q.shape == truth.shape and np.all((q >= 0) & (q <= 1))
-        trusted = q >= 0.3
+        trusted = res.predictions[c]["trusted"]
+        assert trusted.dtype == bool and trusted.shape == truth.shape
         assert m["flagged"] == int(np.sum(~trusted))
         assert m["trusted"]["n"] == int(np.sum(trusted)) == len(truth) - m["flagged"]
         if trusted.any():
@@ -151,9 +186,10 @@ def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> N
         # the quality on disk is the one graded
         on_disk = np.array([float(r["quality"]) for r in rows if r["condition"] == c])
         np.testing.assert_allclose(on_disk, q, atol=5e-4)
+        assert [r["trusted"] for r in rows if r["condition"] == c] == [str(int(t)) for t in trusted]
     on_disk = json.loads((tmp_path / "metrics.json").read_text())
     assert set(on_disk["clean"]["trusted"]) == set(METRIC_KEYS)
     table = (tmp_path / "table.md").read_text()
-    assert "The sequences it trusts (quality ≥ 0.3" in table
+    assert "The sequences it trusts (it flags the others itself: not trusted)" in table
     flagged = res.metrics["clean"]["flagged"]
     assert f"| Clean | {flagged} of {len(truth)} |" in table

@@ -126,6 +126,8 @@ def _expect_error(argv, match, capsys):
     (["--sequences", "0"], "sequences"),
     (["--workers", "0"], "workers"),
     (["--altitude-m", "a,b"], "--altitude-m"),
+    (["--altitude-m", "nan"], "--altitude-m"),
+    (["--wind-speed-mps", "1,2,3"], "--wind-speed-mps"),
     (["--frobnicate"], "No such option"),
 ])
 def test_cli_bad_input(tmp_path, capsys, extra, match):

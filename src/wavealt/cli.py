@@ -6,6 +6,7 @@ and exit code 2, never a traceback.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -39,19 +40,29 @@ def cli() -> None:
 
 
 def _range(text: str | None, name: str) -> tuple[float, float] | None:
-    """Parse ``LO,HI`` or a single value into a range."""
+    """Parse ``LO,HI`` or a single value (``LO = HI``) into a range of finite numbers."""
     if text is None:
         return None
-    parts = text.split(",")
+    msg = f"--{name} must be a finite number or LO,HI; got {text!r}"
     try:
-        vals = [float(p) for p in parts]
+        vals = [float(p) for p in text.split(",")]
     except ValueError:
-        msg = f"--{name} must be a number or LO,HI; got {text!r}"
         raise ValueError(msg) from None
-    if len(vals) == 1:
-        return vals[0], vals[0]
-    if len(vals) != 2:
-        msg = f"--{name} must be a number or LO,HI; got {text!r}"
+    if len(vals) not in (1, 2) or not all(math.isfinite(v) for v in vals):
+        raise ValueError(msg)
+    return vals[0], vals[-1]
+
+
+def _vector(text: str | None, name: str, metavar: str = "X,Y") -> tuple[float, float] | None:
+    """Parse ``X,Y``: exactly two finite numbers (a single one is an error, not ``X,X``)."""
+    if text is None:
+        return None
+    msg = f"--{name} must be two finite numbers {metavar}; got {text!r}"
+    try:
+        vals = [float(p) for p in text.split(",")]
+    except ValueError:
+        raise ValueError(msg) from None
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
         raise ValueError(msg)
     return vals[0], vals[1]
 
@@ -180,9 +191,11 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
 @cli.command()
 @click.argument("dataset", type=click.Path(path_type=Path))
 @click.option("--estimator", required=True,
-              help="cnn:RUN, constant:RUN, constant (dataset train mean), dispersion (blind) or "
-                   "dispersion-aided (camera velocity from the manifest); dispersion[-aided]:gravity "
-                   "or :gravity-capillary forces the dispersion relation.")
+              help="cnn:RUN, constant:RUN, constant (dataset train mean), dispersion (blind), "
+                   "dispersion-aided (the manifest's camera velocity, exact) or "
+                   "dispersion-prior[:SIGMA] (the manifest's camera velocity give or take SIGMA "
+                   "m/s, default 1); a further :gravity or :gravity-capillary forces the "
+                   "dispersion relation.")
 @click.option("--conditions", default=None,
               help="Comma-separated test conditions [all conditions of the dataset].")
 @click.option("--split", default="test", show_default=True, help="Split to evaluate.")
@@ -221,42 +234,76 @@ def reproduce(out: Path, scale: str) -> None:
               help="Frames per estimate; longer inputs are cut into sliding windows "
                    "[1 s of frames, at least 10].")
 @click.option("--step", type=int, default=None, help="Frames between windows [window/2].")
-@click.option("--dispersion", type=click.Choice(["gravity-capillary", "gravity"]),
-              default="gravity-capillary", show_default=True,
-              help="Dispersion relation (gravity: the paper simulator's waves).")
-@click.option("--velocity-mps", default=None,
-              help="Known camera velocity over the water VX,VY (m/s, image axes; 0,0 when "
-                   "hovering): searches the altitude alone.  Without it the drift is searched too.")
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--dispersion", type=click.Choice(["auto", "gravity-capillary", "gravity"]),
+              default="auto", show_default=True,
+              help="Dispersion relation of the waves.  auto: a sequence folder of a wavealt "
+                   "dataset (DATASET/<condition>/<sequence_id>/) takes its renderer's (gravity "
+                   "for the paper preset), anything else real water's (gravity-capillary).")
+@click.option("--velocity-mps", default=None, metavar="VX,VY",
+              help="The camera's velocity over the water, m/s, along image +x (columns) and +y "
+                   "(rows); 0,0 when hovering over still water.  Without it (blind) the "
+                   "velocity is searched too, which needs about 1 s of frames.")
+@click.option("--velocity-sigma-mps", type=float, default=None, metavar="S",
+              help="How far (m/s, one sigma) the camera's velocity over the water may lie from "
+                   "--velocity-mps, e.g. the water's unknown current (a vehicle's navigation "
+                   "gives its velocity over ground); 0 = exact.  [default: 0]")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print one JSON object: altitude_m, altitude_std_m (1 sigma), trusted, reason "
+                   "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "
+                   "camera relative to the water surface, image axes, m/s; also as "
+                   "velocity_mps, the design contract's name), quality, frames, windows, "
+                   "trusted_windows.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: float | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
-             as_json: bool,
-             out: Path | None) -> None:
-    """Altitude from a folder of frames or a video file, by the wave dispersion relation."""
+             velocity_sigma_mps: float | None, as_json: bool, out: Path | None) -> None:
+    """Altitude from a folder of frames or a video file, by the wave dispersion relation.
+
+    An estimate the altimeter cannot vouch for is still printed, marked NOT TRUSTED with
+    the reason.
+    """
     import json
 
-    from wavealt.altimetry.dispersion import altitude_series
+    from wavealt.altimetry.series import altitude_series
     from wavealt.camera import focal_px_from_fov
     from wavealt.video import read_input
 
     if (focal_px is None) == (fov_deg is None):
         msg = "give exactly one of --focal-px and --fov-deg"
         raise ValueError(msg)
+    velocity = _vector(velocity_mps, "velocity-mps", "VX,VY (m/s)")
+    if velocity_sigma_mps is not None:
+        if velocity is None:
+            msg = "--velocity-sigma-mps needs --velocity-mps (the velocity it is the spread of)"
+            raise ValueError(msg)
+        if not (math.isfinite(velocity_sigma_mps) and velocity_sigma_mps >= 0):
+            msg = f"--velocity-sigma-mps must be a finite number >= 0; got {velocity_sigma_mps!r}"
+            raise ValueError(msg)
+    if dispersion == "auto":
+        from wavealt.evaluation import dispersion_of_input
+
+        dispersion = dispersion_of_input(input_path)
     frames = read_input(input_path)
     if focal_px is None:
         focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
     summary, rows = altitude_series(frames, fps=fps, focal_px=focal_px, window=window,
                                     step=step, dispersion=dispersion, out=out,
-                                    velocity_mps=_range(velocity_mps, "velocity-mps"))
+                                    velocity_mps=velocity,
+                                    velocity_sigma_mps=velocity_sigma_mps or 0.0)
     if as_json:
-        click.echo(json.dumps(summary))
+        click.echo(json.dumps({**summary, "velocity_mps": summary["camera_velocity_mps"]}))
         return
-    vx, vy = summary["velocity_mps"]
-    click.echo(f"altitude: {summary['altitude_m']:.3f} +/- {summary['altitude_std_m']:.3f} m  "
-               f"(quality {summary['quality']:.2f}, {summary['frames']} frames, "
-               f"{len(rows)} window(s), water velocity ({vx:.2f}, {vy:.2f}) m/s)")
+    vx, vy = summary["camera_velocity_mps"]
+    verdict = ("TRUSTED" if summary["trusted"]
+               else f"NOT TRUSTED ({summary['reason'] or 'no reason given'})")
+    click.echo(f"altitude: {summary['altitude_m']:.3f} +/- {summary['altitude_std_m']:.3f} m "
+               f"(1 sigma), {verdict}")
+    click.echo(f"mode: {summary['mode']} ({dispersion} dispersion)")
+    click.echo(f"camera velocity over the water: ({vx:+.2f}, {vy:+.2f}) m/s "
+               "(image +x columns, +y rows)")
+    click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
+               f"{summary['windows']} window(s), {summary['trusted_windows']} trusted")
     if out is not None:
         click.echo(f"written: {out}")
 

@@ -12,13 +12,17 @@ An *estimator* turns the frames of a test sequence into one altitude (m).  Spec 
                   ``dispersion:gravity`` / ``dispersion:gravity-capillary`` force one;
                   blind: the camera's velocity over the water is searched too
 ``dispersion-aided``  the same, given the camera's true velocity from the manifest (as a
-                  vehicle's navigation would give it): only the altitude is searched
+                  vehicle's navigation would give it) as exact: only the altitude is searched
+``dispersion-prior[:SIGMA]``  the same velocity as a prior: the camera's velocity over the
+                  water may lie about SIGMA m/s (one sigma, default 1.0) from it; a further
+                  ``:gravity`` / ``:gravity-capillary`` forces the dispersion relation
 
 ``evaluate`` writes into its output folder:
 
 ``metrics.json``    ``{"<condition>": {"n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m"}}``
                     (bias = mean of predicted - true; n = sequences with a finite estimate)
-``predictions.csv`` one row per (condition, sequence)
+``predictions.csv`` one row per (condition, sequence); for the dispersion altimeter also its
+                    ``quality`` and whether it ``trusted`` the estimate (1 / 0)
 ``table.md``        laid out like the paper's Table 2, with the glint-penalty row and the
                     constant baseline
 ``fig5_predicted_vs_actual.png``, ``fig6_error_distribution.png``
@@ -38,9 +42,14 @@ from typing import Any, Protocol
 import numpy as np
 from tqdm.auto import tqdm
 
-from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter
+from wavealt._checks import check_finite_number
+from wavealt.altimetry.dispersion import DISPERSIONS, DispersionAltimeter
 
 METRIC_KEYS = ("n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m", "rel_mae_pct")
+
+#: Default one-sigma spread (m/s) of ``dispersion-prior``: the camera's velocity over the
+#: water may differ from the navigation's by about a strong tidal current.
+PRIOR_SIGMA_MPS = 1.0
 
 #: The paper's Table 2 (ResNet-50 trained on clean, n = 30 test sequences each).
 PAPER_TABLE2: dict[str, dict[str, float]] = {
@@ -140,6 +149,49 @@ def dispersion_of(config: Any) -> str:
     return "gravity" if renderer == "paper" else "gravity-capillary"
 
 
+def dispersion_of_input(path: Path | str) -> str:
+    """The dispersion relation for the frames at ``path`` (``wavealt altitude --dispersion
+    auto``).
+
+    A sequence folder of a wavealt dataset (``DATASET/<condition>/<sequence_id>/`` with
+    ``DATASET/dataset.json``) takes the relation of the dataset's renderer
+    (:func:`dispersion_of` of its config); anything else is taken for real water
+    (``"gravity-capillary"``).
+
+    Parameters
+    ----------
+    path : path
+        A frame folder or a video file.
+    """
+    folder = Path(path)
+    if folder.is_dir():
+        root = folder.resolve().parent.parent
+        if (root / "dataset.json").is_file():
+            from wavealt.dataset import Dataset
+
+            return dispersion_of(Dataset(root).config)
+    return dispersion_of(None)
+
+
+@dataclass(frozen=True)
+class GradedEstimate:
+    """An altitude with the estimator's own verdict on it.
+
+    Attributes
+    ----------
+    altitude_m : float
+        Estimated altitude, metres (NaN when the estimator gave up).
+    quality : float
+        The fit's quality in [0, 1].
+    trusted : bool
+        Whether the estimator vouches for it (``DispersionResult.trusted``).
+    """
+
+    altitude_m: float
+    quality: float
+    trusted: bool
+
+
 class DispersionEstimator:
     """Physics-based: fit of the wave dispersion relation (``wavealt.altimetry.dispersion``).
 
@@ -150,18 +202,35 @@ class DispersionEstimator:
     aided : bool
         Give the altimeter the camera's true velocity over the water (the manifest's
         ``camera_speed_mps`` / ``camera_dir_deg``; ``(0, 0)`` for a hovering camera), as a
-        vehicle's navigation would, so it searches the altitude only.  Otherwise ("blind")
-        it searches the velocity too.
+        vehicle's navigation would, so it searches the altitude only ("exact" mode, or
+        "prior" with ``velocity_sigma_mps > 0``).  Otherwise ("blind") it searches the
+        velocity too.
+    velocity_sigma_mps : float
+        With ``aided``: how far (m/s, one sigma) the camera's velocity over the water may lie
+        from the one given; 0 for exact.
     """
 
-    def __init__(self, *, dispersion: str | None = None, aided: bool = False) -> None:
+    def __init__(self, *, dispersion: str | None = None, aided: bool = False,
+                 velocity_sigma_mps: float = 0.0) -> None:
         self.aided = bool(aided)
+        self.velocity_sigma_mps = check_finite_number("velocity_sigma_mps", velocity_sigma_mps,
+                                                      low=0.0)
+        if self.velocity_sigma_mps > 0 and not self.aided:
+            msg = (f"velocity_sigma_mps needs aided=True (a velocity to be uncertain about); "
+                   f"got {velocity_sigma_mps!r} without it")
+            raise ValueError(msg)
         self.dispersion = dispersion
         self.altimeter = None if dispersion is None else DispersionAltimeter(dispersion=dispersion)
 
     @property
     def name(self) -> str:
-        parts = [p for p in (self.dispersion, "velocity known" if self.aided else "blind") if p]
+        if not self.aided:
+            velocity = "blind"
+        elif self.velocity_sigma_mps > 0:
+            velocity = f"velocity prior ±{self.velocity_sigma_mps:g} m/s"
+        else:
+            velocity = "velocity known"
+        parts = [p for p in (self.dispersion, velocity) if p]
         return f"dispersion ({', '.join(parts)})"
 
     def bind(self, dataset: Any) -> None:
@@ -170,22 +239,23 @@ class DispersionEstimator:
             self.dispersion = dispersion_of(getattr(dataset, "config", None))
             self.altimeter = DispersionAltimeter(dispersion=self.dispersion)
 
-    def estimate_with_quality(self, dataset: Any, condition: str,
-                              record: Any) -> tuple[float, float]:
-        """Altitude (m, NaN if it gives up) and the fit's quality in [0, 1]."""
+    def estimate_graded(self, dataset: Any, condition: str, record: Any) -> GradedEstimate:
+        """Altitude of one sequence (NaN if it gives up), the fit's quality and whether the
+        altimeter trusts it."""
         self.bind(dataset)
         frames = dataset.read_frames(condition, record.sequence_id)
         try:
             velocity = record.scenario.camera_velocity_mps if self.aided else None
             res = self.altimeter.estimate(frames, fps=record.scenario.fps,
                                           focal_px=record.scenario.focal_px,
-                                          velocity_mps=velocity)
+                                          velocity_mps=velocity,
+                                          velocity_sigma_mps=self.velocity_sigma_mps)
         except ValueError:
-            return math.nan, 0.0
-        return float(res.altitude_m), float(res.quality)
+            return GradedEstimate(math.nan, 0.0, False)
+        return GradedEstimate(float(res.altitude_m), float(res.quality), bool(res.trusted))
 
     def estimate(self, dataset: Any, condition: str, record: Any) -> float:
-        return self.estimate_with_quality(dataset, condition, record)[0]
+        return self.estimate_graded(dataset, condition, record).altitude_m
 
 
 def train_split_mean_m(dataset: Any) -> float:
@@ -213,11 +283,37 @@ def parse_estimator(spec: str, dataset: Any = None) -> Estimator:
         return ConstantEstimator(float(info["stats"]["target_mean_m"]), source=str(arg))
     if kind == "constant" and dataset is not None:
         return ConstantEstimator(train_split_mean_m(dataset), source="dataset train split")
-    if kind in ("dispersion", "dispersion-aided") and arg in ("", "gravity", "gravity-capillary"):
+    if kind in ("dispersion", "dispersion-aided") and arg in ("", *DISPERSIONS):
         return DispersionEstimator(dispersion=arg or None, aided=kind == "dispersion-aided")
+    if kind == "dispersion-prior":
+        return _prior_estimator(spec, arg)
     msg = (f"unknown estimator {spec!r}; expected cnn:RUN, constant:RUN, constant, "
-           "dispersion[:gravity|:gravity-capillary] or dispersion-aided[:…]")
+           "dispersion[:gravity|:gravity-capillary], dispersion-aided[:…] or "
+           "dispersion-prior[:SIGMA][:…]")
     raise ValueError(msg)
+
+
+def _prior_estimator(spec: str, arg: str) -> DispersionEstimator:
+    """``dispersion-prior[:SIGMA][:gravity|:gravity-capillary]`` (``arg``: after the first
+    colon)."""
+    sigma, dispersion = PRIOR_SIGMA_MPS, None
+    parts = arg.split(":") if arg else []
+    if parts and parts[-1] in DISPERSIONS:
+        dispersion = parts.pop()
+    if len(parts) > 1:
+        msg = (f"unknown estimator {spec!r}; expected "
+               "dispersion-prior[:SIGMA][:gravity|:gravity-capillary]")
+        raise ValueError(msg)
+    if parts:
+        try:
+            sigma = float(parts[0])
+        except ValueError:
+            sigma = math.nan
+        if not (math.isfinite(sigma) and sigma > 0):
+            msg = (f"SIGMA of estimator {spec!r} must be a number > 0 (m/s; "
+                   f"dispersion-aided for a velocity known exactly); got {parts[0]!r}")
+            raise ValueError(msg)
+    return DispersionEstimator(dispersion=dispersion, aided=True, velocity_sigma_mps=sigma)
 
 
 # -- evaluation -------------------------------------------------------------------------
@@ -281,24 +377,26 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
                unit="seq")
     # estimators that grade their own fits (the dispersion altimeter) also get metrics on
     # the sequences they trust, and the count they flag
-    with_quality = getattr(est, "estimate_with_quality", None)
+    graded = getattr(est, "estimate_graded", None)
     for c in conds:
         p = np.empty(len(records))
         q = np.full(len(records), np.nan)
+        trusted = np.zeros(len(records), dtype=bool)
         for i, r in enumerate(records):
-            if with_quality is not None:
-                p[i], q[i] = with_quality(ds, c, r)
+            if graded is not None:
+                g = graded(ds, c, r)
+                p[i], q[i], trusted[i] = g.altitude_m, g.quality, g.trusted
             else:
                 p[i] = est.estimate(ds, c, r)
             bar.update()
         metrics[c] = altitude_metrics(p, true_m)
         preds[c] = {"sequence_id": np.array([r.sequence_id for r in records]), "true_m": true_m,
                     "pred_m": p}
-        if with_quality is not None:
-            trusted = q >= TRUSTED_QUALITY
+        if graded is not None:
             metrics[c]["flagged"] = int(np.count_nonzero(~trusted))
             metrics[c]["trusted"] = altitude_metrics(p[trusted], true_m[trusted])
             preds[c]["quality"] = q
+            preds[c]["trusted"] = trusted
     bar.close()
     base = _baseline_for(est, ds)
     base_metrics = altitude_metrics(np.full(len(records), base.altitude_m), true_m)
@@ -324,12 +422,16 @@ def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
     w = csv.writer(buf, lineterminator="\n")
     graded = any("quality" in d for d in preds.values())
     w.writerow(["condition", "sequence_id", "altitude_m", "predicted_m", "abs_err_m"]
-               + (["quality"] if graded else []))
+               + (["quality", "trusted"] if graded else []))
     for c, d in preds.items():
-        qs = d.get("quality", np.full(len(d["pred_m"]), np.nan))
-        for sid, t, p, q in zip(d["sequence_id"], d["true_m"], d["pred_m"], qs):
+        n = len(d["pred_m"])
+        qs = d.get("quality", np.full(n, np.nan))
+        ts = d.get("trusted", [None] * n)
+        for sid, t, p, q, ok in zip(d["sequence_id"], d["true_m"], d["pred_m"], qs, ts):
             row = [c, sid, f"{t:.4f}", f"{p:.4f}", f"{abs(p - t):.4f}"]
-            w.writerow(row + ([f"{q:.3f}" if math.isfinite(q) else ""] if graded else []))
+            if graded:
+                row += [f"{q:.3f}" if math.isfinite(q) else "", "" if ok is None else int(ok)]
+            w.writerow(row)
     return buf.getvalue()
 
 
@@ -363,8 +465,7 @@ def table_markdown(result: EvaluationResult) -> str:
                      f"{_f(b.get('rel_mae_pct', math.nan), pct=True)} |")
     graded = {c: v for c, v in m.items() if "trusted" in v}
     if graded:
-        lines += ["", f"The sequences it trusts (quality ≥ {TRUSTED_QUALITY}; it flags the "
-                  "others itself):", "",
+        lines += ["", "The sequences it trusts (it flags the others itself: not trusted):", "",
                   "| Condition | flagged | MAE (m) | Bias (m) | Rel. MAE (%) |",
                   "|---|---:|---:|---:|---:|"]
         for c, v in graded.items():
@@ -379,7 +480,7 @@ def table_markdown(result: EvaluationResult) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["METRIC_KEYS", "PAPER_TABLE2", "CnnEstimator", "ConstantEstimator",
-           "DispersionEstimator", "EvaluationResult", "altitude_metrics", "dispersion_of",
-           "evaluate",
-           "parse_estimator", "predictions_csv", "table_markdown", "train_split_mean_m"]
+__all__ = ["METRIC_KEYS", "PAPER_TABLE2", "PRIOR_SIGMA_MPS", "CnnEstimator", "ConstantEstimator",
+           "DispersionEstimator", "EvaluationResult", "GradedEstimate", "altitude_metrics",
+           "dispersion_of", "dispersion_of_input", "evaluate", "parse_estimator",
+           "predictions_csv", "table_markdown", "train_split_mean_m"]

@@ -32,7 +32,6 @@ from pathlib import Path
 from typing import Any
 
 from wavealt._checks import check_choice
-from wavealt.altimetry.dispersion import TRUSTED_QUALITY
 
 DEGLINT_METHODS = ("tmf", "tmf-min", "median", "percentile", "glint-mask", "achromatic")
 
@@ -386,7 +385,7 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
          "relation of the simulator's renderer), blind (it searches the camera's velocity over "
          "the water too) and with the velocity known (as a vehicle's navigation gives it), "
          "each followed by a *trusted only* row (the same estimates less those the altimeter "
-         f"flags itself, quality < {TRUSTED_QUALITY}; n counts what is left), "
+         "flags itself as not trusted; n counts what is left), "
          "and the constant baseline (training-set mean "
          "altitude). Columns: the test condition (`residual` is the paper's eq. (6) glint "
          "estimate; `tmf-min`, `median`, `percentile`, `glint-mask`, `achromatic` are "

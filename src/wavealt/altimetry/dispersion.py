@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -70,12 +70,30 @@ TRUSTED_QUALITY = 0.3
 #: frames).
 PHASE_STEP_CHI2 = 2.0
 MIN_FRAMES = 3
+#: Largest 3-sigma relative uncertainty of a trusted estimate: the contract is that no
+#: trusted window is off by more than 10 %, so one whose own 3-sigma interval is wider
+#: cannot be trusted.
+MAX_TRUSTED_3SIGMA = 0.10
+#: Least significance of the shell's peak: its score above the mean that random phase
+#: steps would give, in units of that score's standard deviation (each mode's share
+#: averaged over all phase steps; :meth:`DispersionAltimeter._result`).  Uniform RGB noise,
+#: 12 frames of 64-256 px, exact and blind (18 windows): 4.6-19, the most prominent of the
+#: many candidate peaks; rendered sea windows that pass the other tests: 49-145.
+MIN_SIGNIFICANCE = 30.0
+#: An estimate within this factor of an end of ``altitude_range_m`` is not trusted: the
+#: shell's peak may lie beyond the end, and the fit is pinned to it.
+EDGE_FACTOR = 1.15
+
+
 #: Quality below which an aided chroma fit (``signal="auto"``) is checked against the
 #: luminance's (a blind one: below ``TRUSTED_QUALITY``).
 #: Paper renderer, 296 windows of seeds 5, 7 and 11 that chose the chroma: 90 % grade
 #: 0.86-0.90; the realistic preset's clean chroma, whose colour does not all follow the
 #: waves, graded 0.74-0.80 while 23-59 % off (the luminance: 0.88-0.90, within 0.4 %).
 CHROMA_CHECK_QUALITY = 0.85
+
+
+MODES = ("blind", "prior", "exact")
 
 
 @dataclass
@@ -88,31 +106,52 @@ class DispersionResult:
         Estimated camera altitude above the mean sea surface, metres.
     altitude_std_m : float
         One-sigma uncertainty of ``altitude_m``, metres (large when the fit is poor).
-    velocity_mps : tuple of float
-        ``(vx, vy)``: velocity of the water relative to the camera along image +x (columns)
-        and +y (rows), m/s.  A camera moving at ``v`` over still water sees ``-v``.
+    camera_velocity_mps : tuple of float
+        ``(vx, vy)``: the camera's velocity relative to the water surface along image +x
+        (columns) and +y (rows), m/s; the same convention as the ``velocity_mps`` that
+        :meth:`DispersionAltimeter.estimate` takes.  A camera hovering over water that
+        drifts at ``c`` has ``-c``.
     quality : float
-        In [0, 1]: share of the coherent spectral weight the fit explains, discounted for
-        few modes and large relative uncertainty.  Below ~0.3, do not trust the estimate.
+        In [0, 1]: relative prominence of the wave shell's peak, discounted for a large
+        relative uncertainty.
+    trusted : bool
+        Whether the estimate may be used (an autopilot link sends an untrusted one as a
+        dropout, never as a reading).
+    reason : str or None
+        Why it is not trusted (None when trusted).
+    mode : {"blind", "prior", "exact"}
+        Velocity unknown; a prior on it (``velocity_sigma_mps > 0``); known exactly.
     frames : int
         Number of frames used.
     n_modes : int
-        Number of spatial modes the final fit kept as inliers.
+        Number of spatial modes in the final fit.
+    signal : str
+        The scalar sequence fitted (``"luma"`` or ``"chroma"``) and the tiles it was
+        transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``.
     """
 
     altitude_m: float
     altitude_std_m: float
-    velocity_mps: tuple[float, float]
+    camera_velocity_mps: tuple[float, float]
     quality: float
+    trusted: bool
+    reason: str | None
+    mode: str
     frames: int
     n_modes: int
+    signal: str = ""
+    #: Mean explained share at the peak (comparable between fits of one periodogram only).
+    peak_score: float = field(default=0.0, repr=False, compare=False)
+    significance: float = field(default=0.0, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able dict (floats, ints, a two-item list for the velocity)."""
         d = asdict(self)
-        d["velocity_mps"] = [float(v) for v in self.velocity_mps]
+        d["camera_velocity_mps"] = [float(v) for v in self.camera_velocity_mps]
         for key in ("altitude_m", "altitude_std_m", "quality"):
             d[key] = float(d[key])
+        d["trusted"] = bool(self.trusted)
+        del d["peak_score"], d["significance"]
         return d
 
 
@@ -841,15 +880,20 @@ class DispersionAltimeter:
 
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
-                 velocity_mps: tuple[float, float] | None = None) -> DispersionResult:
-        """Estimate altitude, its uncertainty and the water's velocity from ``frames``.
+                 velocity_mps: tuple[float, float] | None = None,
+                 velocity_sigma_mps: float = 0.0) -> DispersionResult:
+        """Estimate altitude, its uncertainty and the camera's velocity over the water.
 
-        With ``velocity_mps`` (the camera's velocity over the water along image +x and +y,
-        m/s, e.g. from satellite navigation over still water; ``(0, 0)`` for a hovering
-        camera) only the altitude is searched ("aided").  Without it the velocity is searched
-        too ("blind"): on imagery that is a strongly non-linear function of slope (Fresnel,
-        glint) that needs about a second of frames; a shorter clip leaves drift and altitude
-        trading off, which the quality and uncertainty report.
+        Three modes (``DispersionResult.mode``):
+
+        * **blind** (no ``velocity_mps``): altitude and the camera's velocity relative to the
+          water are searched jointly;
+        * **prior** (``velocity_mps`` and ``velocity_sigma_mps > 0``): the camera's velocity
+          relative to the water lies within about ``3 velocity_sigma_mps`` of
+          ``velocity_mps`` (a vehicle's velocity over ground from satellite navigation, the
+          water's current and wind drift unknown: sigma ~ the largest current expected);
+        * **exact** (``velocity_sigma_mps = 0``): the camera's velocity over the water is
+          ``velocity_mps`` (a hovering camera over still water: ``(0, 0)``).
 
         Parameters
         ----------
@@ -860,7 +904,11 @@ class DispersionAltimeter:
         focal_px : float
             Focal length in pixels (``(W / 2) / tan(fov_x / 2)``).
         velocity_mps : (float, float), optional
-            Known camera velocity over the water, m/s, image axes.
+            The camera's velocity (over the water as far as known), m/s, along image +x
+            (columns) and +y (rows).
+        velocity_sigma_mps : float
+            How far, m/s (one sigma, per axis), the camera's velocity over the water may lie
+            from ``velocity_mps``; 0 for exact.  Ignored without ``velocity_mps``.
 
         Returns
         -------
@@ -868,16 +916,20 @@ class DispersionAltimeter:
         """
         with _one_blas_thread():
             return self._estimate(frames, fps=fps, focal_px=focal_px,
-                                  velocity_mps=velocity_mps)
+                                  velocity_mps=velocity_mps,
+                                  velocity_sigma_mps=velocity_sigma_mps)
 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
-                  velocity_mps: tuple[float, float] | None) -> DispersionResult:
+                  velocity_mps: tuple[float, float] | None,
+                  velocity_sigma_mps: float = 0.0) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
+        velocity_sigma_mps = check_finite_number("velocity_sigma_mps", velocity_sigma_mps,
+                                                 low=0.0)
         if velocity_mps is not None:
-            if len(velocity_mps) != 2:
-                msg = f"velocity_mps must be (vx, vy); got {velocity_mps!r}"
+            if np.ndim(velocity_mps) != 1 or len(velocity_mps) != 2:
+                msg = f"velocity_mps must be two numbers (vx, vy); got {velocity_mps!r}"
                 raise ValueError(msg)
             velocity_mps = tuple(check_finite_number("velocity_mps", v) for v in velocity_mps)
         t, h, w = arr.shape[:3]
@@ -889,6 +941,38 @@ class DispersionAltimeter:
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
+        prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
+        res = self._fit(arr, fps, focal_px, prior)
+        res.mode = ("blind" if velocity_mps is None
+                    else "prior" if velocity_sigma_mps > 0 else "exact")
+        return self._judge(res)
+
+    def _judge(self, res: DispersionResult) -> DispersionResult:
+        """The trust decision of a finished fit, in place: a prominent shell peak, a 3-sigma
+        interval within ``MAX_TRUSTED_3SIGMA`` of the altitude, and an estimate inside the
+        altitude range (not pinned to an end of it)."""
+        lo, hi = self.altitude_range_m
+        rel3 = 3.0 * res.altitude_std_m / res.altitude_m
+        reason = res.reason
+        if res.significance < MIN_SIGNIFICANCE:
+            reason = reason or "no wave signal above the noise"
+        elif res.quality < TRUSTED_QUALITY:
+            reason = reason or "no prominent wave-shell peak"
+        elif rel3 > MAX_TRUSTED_3SIGMA:
+            reason = f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
+        elif not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
+            reason = "at the edge of the altitude range searched"
+        res.trusted = reason is None
+        res.reason = reason
+        if not res.trusted:
+            # a window that cannot be measured says so in its uncertainty too: its
+            # 3-sigma interval spans the whole altitude range searched
+            res.altitude_std_m = max(res.altitude_std_m, (hi - lo) / 3.0)
+        return res
+
+    def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
+             velocity_mps: tuple[float, float] | None) -> DispersionResult:
+        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`)."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
@@ -900,7 +984,8 @@ class DispersionAltimeter:
                 # (blind fits grade lower, their profile being broader: checked only when
                 # untrusted; checking them at 0.85 fitted both on most 30-frame glinty windows,
                 # 0.54 -> 1.2 s each, for no gain: 1.34 -> 1.40 %)
-                check = CHROMA_CHECK_QUALITY if velocity_mps is not None else TRUSTED_QUALITY
+                check = (CHROMA_CHECK_QUALITY if velocity_mps is not None and velocity_mps[2] == 0
+                         else TRUSTED_QUALITY)
                 if res.quality >= check:
                     return res
                 alt = self._fit_signal(self._luma(arr), fps, focal_px, velocity_mps)
@@ -916,19 +1001,19 @@ class DispersionAltimeter:
         p = self._periodogram(signal)
         if p["kappa"].size < 12:
             return self._failed(t)
-        if velocity_mps is not None:
-            res = self._aided(p, t, fps, focal_px, velocity_mps)
+        if velocity_mps is not None and velocity_mps[2] == 0:
+            res = self._aided(p, t, fps, focal_px, velocity_mps[:2])
             if res.quality < TRUSTED_QUALITY and p["corners"]:
                 # A fast drift carries the water across a corner tile within the clip (3 m/s
                 # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer.
                 # Realistic preset, 30 frames, 2.9 m at 2.9 m/s: +593 % flagged -> +0.3 %.
                 alt = self._aided(self._periodogram(signal, corners=False), t, fps, focal_px,
-                                  velocity_mps)
+                                  velocity_mps[:2])
                 if alt.quality > res.quality:
                     res = alt
             return res
-        # Blind: the per-mode phase-step fit gives a start; the altitude comes from the
-        # periodogram's profile over altitude with the velocity re-fitted at every altitude.
+        if velocity_mps is not None:
+            return self._prior(p, t, fps, focal_px, velocity_mps)
         m = self._modes(signal)
         if m["kappa"].size < 12:
             return self._failed(t)
@@ -941,13 +1026,37 @@ class DispersionAltimeter:
             # The profile does not pin the altitude (a short clip or a small frame) but the
             # phase steps follow one shell to within their noise (imagery linear in slope,
             # where the phase-step fit is exact): report that fit, with the profile's
-            # (large) uncertainty.
+            # uncertainty (untrusted: the whole range).
             alt = math.exp(start["logh"])
-            u = start["u"]
             res.altitude_std_m = float(res.altitude_std_m / res.altitude_m * alt)
             res.altitude_m = float(alt)
-            res.velocity_mps = (float(u[0] * fps * alt / focal_px),
-                                float(u[1] * fps * alt / focal_px))
+            res.camera_velocity_mps = (float(-start["u"][0] * fps * alt / focal_px),
+                                       float(-start["u"][1] * fps * alt / focal_px))
+        return res
+
+    def _prior(self, p: dict[str, Any], t: int, fps: float, focal_px: float,
+               prior: tuple[float, float, float]) -> DispersionResult:
+        """The camera's velocity over the water known to ``sigma`` m/s (``prior = (vx, vy,
+        sigma)``): exact fits at the prior's mean and at the eight points ``sigma`` away
+        along and between the image axes.
+
+        The estimate is the fit at the mean (picking the fit whose peak stands highest chose
+        velocities that freeze the waves: 109 % off on 10-frame clips); the spread of the
+        nine altitudes adds to its uncertainty, so
+        an altitude that depends on the unknown drift (a short clip, waves one way) is not
+        trusted, while one that does not (waves both ways pin the drift) keeps the exact
+        fit's precision.  A free search over the velocity box was tried first and failed on
+        10-frame clips, where the drift trades against the altitude along a broad ridge.
+        """
+        vx, vy, sigma = prior
+        offs = [(0.0, 0.0)] + [(sigma * math.cos(a), sigma * math.sin(a))
+                               for a in np.arange(8) * (np.pi / 4)]
+        fits = [self._aided(p, t, fps, focal_px, (vx + dx, vy + dy)) for dx, dy in offs]
+        res = fits[0]
+        logs = np.log([r.altitude_m for r in fits])
+        spread = float(np.std(logs))
+        sd_logh = math.hypot(res.altitude_std_m / res.altitude_m, spread)
+        res.altitude_std_m = float(res.altitude_m * sd_logh)
         return res
 
     def _aided(self, p: dict[str, Any], t: int, fps: float, focal_px: float,
@@ -1079,7 +1188,7 @@ class DispersionAltimeter:
         """
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = 0.05
-        grid = logh0 + np.arange(-0.8, 0.4 + step / 2, step)
+        grid = logh0 + np.arange(-math.log(4.0), 0.4 + step / 2, step)
         n = p["kappa"].size
         sub = np.arange(0, n, max(1, n // 1500))
         scan = np.empty(grid.size)
@@ -1106,8 +1215,11 @@ class DispersionAltimeter:
     def _failed(self, frames: int) -> DispersionResult:
         lo, hi = self.altitude_range_m
         mid = math.sqrt(lo * hi)
-        return DispersionResult(altitude_m=mid, altitude_std_m=hi - lo, velocity_mps=(0.0, 0.0),
-                                quality=0.0, frames=int(frames), n_modes=0)
+        return DispersionResult(altitude_m=mid, altitude_std_m=hi - lo,
+                                camera_velocity_mps=(0.0, 0.0), quality=0.0, trusted=False,
+                                reason="no wave signal to fit (flat or frozen frames)",
+                                mode="blind",
+                                frames=int(frames), n_modes=0)
 
     def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
                 focal_px: float) -> DispersionResult:
@@ -1132,6 +1244,12 @@ class DispersionAltimeter:
         # (prominence 0.45-0.95 of its height on rendered clean and glinty frames, 1-15 m);
         # textures without dispersion (noise, frozen or carried patterns) make at most small
         # bumps on a scan that rises toward the edge of the range.
+        # significance of the peak against random phase steps: each mode's share averaged
+        # over all phase steps (its mean and variance) gives the score's null distribution
+        q_all = p["q"]
+        null_mean = float(q_all.mean())
+        null_sd = float(np.sqrt(np.sum(q_all.var(axis=1)))) / q_all.shape[0]
+        z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_sd, 1e-30)
         rel_prom = fit["prominence"] / max(float(np.max(fit["scan"])), 1e-30)
         q = float(np.clip((rel_prom - 0.1) / 0.3, 0.0, 1.0))
         if not fit["interior"]:
@@ -1139,10 +1257,12 @@ class DispersionAltimeter:
         q *= float(np.clip(1.0 - sd_logh / 0.1, 0.0, 1.0))
         sd_logh = sd_logh + (1.0 - q) ** 3  # an untrusted fit must not look precise
         alt = math.exp(logh)
-        # u is the camera's image velocity (px/frame); report the water relative to it
-        vel = (float(-u[0] * fps * alt / focal_px), float(-u[1] * fps * alt / focal_px))
+        # u is the camera's image velocity over the water (px/frame)
+        vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
         return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
-                                velocity_mps=vel, quality=q, frames=int(t), n_modes=int(n))
+                                camera_velocity_mps=vel, quality=q, trusted=False, reason=None,
+                                mode="blind", frames=int(t), n_modes=int(n),
+                                peak_score=float(np.max(vals.mean(axis=1))), significance=z)
 
 
 def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float, hi: float,
@@ -1182,98 +1302,5 @@ def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                                               velocity_mps=velocity_mps)
 
 
-def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int | None = None,
-                    step: int | None = None, out: Any = None, progress: bool = False,
-                    velocity_mps: tuple[float, float] | None = None,
-                    **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """Estimates on sliding windows of ``frames`` and a summary of them.
-
-    A sequence of at most ``window`` frames gives one estimate.  The default window is one
-    second of frames (at least 10): the blind fit needs about a second to separate the waves
-    from the optics' slower products, and the aided fit, which works from 10 frames, is
-    several times more accurate with 1 s (paper renderer, 1-15 m: 0.12 % against 1.5 %
-    relative MAE clean, 0.14 % against 1.8 % glinty; ``bench_dispersion.py``).  The
-    summary holds the quality-weighted median altitude of the windows (its spread as
-    ``altitude_std_m``), the median velocity, the total ``frames``, the mean ``quality``
-    and the ``windows``.
-    With ``out`` (a folder), writes ``altitude.csv``, ``altitude.json`` and
-    ``altitude.png`` (altitude over time).
-    """
-    from pathlib import Path
-
-    from tqdm import tqdm
-
-    from wavealt.video import sliding_windows
-
-    arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
-    if window is None:
-        fps = check_finite_number("fps", fps, low=0.0, low_open=True)
-        window = max(10, round(fps))
-    est = DispersionAltimeter(**kw)
-    rows: list[dict[str, Any]] = []
-    ranges = list(sliding_windows(arr.shape[0], window=window, step=step))
-    for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
-        res = est.estimate(arr[start:stop], fps=fps, focal_px=focal_px, velocity_mps=velocity_mps)
-        row = {"start_frame": start, "stop_frame": stop,
-               "time_s": 0.5 * (start + stop - 1) / fps, **res.to_dict()}
-        rows.append(row)
-    alts = np.array([r["altitude_m"] for r in rows])
-    q = np.array([r["quality"] for r in rows])
-    if len(rows) == 1:
-        summary = dict(rows[0])
-    else:
-        wq = q + 1e-9
-        order = np.argsort(alts)
-        cw = np.cumsum(wq[order])
-        med = float(alts[order][np.searchsorted(cw, 0.5 * cw[-1])])
-        spread = float(1.4826 * np.median(np.abs(alts - med)))
-        stds = np.array([r["altitude_std_m"] for r in rows])
-        vel = np.median(np.array([r["velocity_mps"] for r in rows]), axis=0)
-        summary = {"altitude_m": med,
-                   "altitude_std_m": float(max(spread, np.median(stds) / math.sqrt(len(rows)))),
-                   "velocity_mps": [float(vel[0]), float(vel[1])],
-                   "quality": float(q.mean()), "frames": int(arr.shape[0]),
-                   "n_modes": int(np.median([r["n_modes"] for r in rows]))}
-    summary["windows"] = len(rows)
-    if out is not None:
-        _write_series(Path(out), summary, rows)
-    return summary, rows
-
-
-def _write_series(out: Any, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
-    import json
-
-    from wavealt.dataset import atomic_write_text
-
-    out.mkdir(parents=True, exist_ok=True)
-    cols = ["start_frame", "stop_frame", "time_s", "altitude_m", "altitude_std_m", "vx_mps",
-            "vy_mps", "quality", "frames", "n_modes"]
-    lines = [",".join(cols)]
-    for r in rows:
-        vals = {**r, "vx_mps": r["velocity_mps"][0], "vy_mps": r["velocity_mps"][1]}
-        lines.append(",".join(f"{vals[c]:.6g}" if isinstance(vals[c], float) else str(vals[c])
-                              for c in cols))
-    atomic_write_text(out / "altitude.csv", "\n".join(lines) + "\n")
-    atomic_write_text(out / "altitude.json",
-                      json.dumps({"summary": summary, "windows": rows}, indent=2) + "\n")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    t = [r["time_s"] for r in rows]
-    a = np.array([r["altitude_m"] for r in rows])
-    sd = np.array([r["altitude_std_m"] for r in rows])
-    fig, ax = plt.subplots(figsize=(6, 3.2))
-    ax.fill_between(t, a - sd, a + sd, alpha=0.3, label="±1 std")
-    ax.plot(t, a, "o-", ms=3, label="altitude")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("altitude (m)")
-    ax.legend(loc="best")
-    fig.tight_layout()
-    fig.savefig(out / "altitude.png", dpi=120)
-    plt.close(fig)
-
-
-__all__ = ["altitude_series", "DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
+__all__ = ["DISPERSIONS", "MODES", "DispersionAltimeter", "DispersionResult", "deglint",
            "estimate_altitude"]

@@ -1,0 +1,206 @@
+"""Altitude over time: the dispersion altimeter on sliding windows of a long input, and the
+files that record it (CSV, JSON, a plot)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from wavealt._checks import check_finite_number, check_frames
+from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
+from wavealt.dataset import atomic_write_text
+from wavealt.video import sliding_windows
+
+#: Why a summary with no trusted window is not trusted.
+NO_TRUSTED_WINDOW = "no window trusted"
+
+#: Columns of ``altitude.csv``, one row per window.
+CSV_COLUMNS = ("start_frame", "stop_frame", "time_s", "altitude_m", "altitude_std_m",
+               "camera_vx_mps", "camera_vy_mps", "quality", "trusted", "mode", "reason",
+               "frames", "n_modes")
+
+
+def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int | None = None,
+                    step: int | None = None, out: Path | str | None = None,
+                    progress: bool = False, velocity_mps: tuple[float, float] | None = None,
+                    velocity_sigma_mps: float = 0.0,
+                    **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Estimates on sliding windows of ``frames`` and a summary of them.
+
+    A sequence of at most ``window`` frames gives one estimate.  The default window is one
+    second of frames (at least 10): the blind fit needs about a second to separate the waves
+    from the optics' slower products, and the aided fit, which works from 10 frames, is
+    several times more accurate with 1 s (paper renderer, 1-15 m: 0.12 % against 1.5 %
+    relative MAE clean, 0.14 % against 1.8 % glinty; ``bench_dispersion.py``).
+
+    Parameters
+    ----------
+    frames : (T, H, W, 3) or (T, H, W) array
+        Frame sequence, float in [0, 1] or uint8, evenly spaced in time.
+    fps : float
+        Frame rate, frames per second.
+    focal_px : float
+        Focal length in pixels.
+    window : int, optional
+        Frames per estimate [one second of frames, at least 10].
+    step : int, optional
+        Frames between window starts [half a window].
+    out : path, optional
+        Folder to write ``altitude.csv``, ``altitude.json`` and ``altitude.png`` (altitude
+        over time) into, each atomically.
+    progress : bool
+        Show a progress bar over the windows.
+    velocity_mps : (float, float), optional
+        The camera's velocity (over the water as far as known), m/s, along image +x
+        (columns) and +y (rows); None: blind (:meth:`DispersionAltimeter.estimate`).
+    velocity_sigma_mps : float
+        How far (m/s, one sigma) the camera's velocity over the water may lie from
+        ``velocity_mps``; 0 for exact.
+    **kw
+        Options of :class:`DispersionAltimeter` (``dispersion``, ``deglint``, ...).
+
+    Returns
+    -------
+    summary : dict
+        :func:`summarize` of the windows.
+    rows : list of dict
+        One per window: ``start_frame``, ``stop_frame``, ``time_s`` (the window's centre,
+        seconds) and the fields of its :class:`DispersionResult` (``to_dict``).
+    """
+    arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    if window is None:
+        fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+        window = max(10, round(fps))
+    est = DispersionAltimeter(**kw)
+    rows: list[dict[str, Any]] = []
+    ranges = list(sliding_windows(arr.shape[0], window=window, step=step))
+    for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
+        res = est.estimate(arr[start:stop], fps=fps, focal_px=focal_px,
+                           velocity_mps=velocity_mps, velocity_sigma_mps=velocity_sigma_mps)
+        rows.append({"start_frame": start, "stop_frame": stop,
+                     "time_s": 0.5 * (start + stop - 1) / fps, **res.to_dict()})
+    summary = summarize(rows, frames=int(arr.shape[0]))
+    if out is not None:
+        _write_series(Path(out), summary, rows)
+    return summary, rows
+
+
+def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
+    """The ``w``-weighted median of ``x`` (the lower one at a tie)."""
+    order = np.argsort(x)
+    cw = np.cumsum(w[order])
+    return float(x[order][np.searchsorted(cw, 0.5 * cw[-1])])
+
+
+def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
+    """One estimate for a whole input from the estimates of its windows.
+
+    The altitude is the quality-weighted median of the *trusted* windows, its uncertainty
+    the larger of their robust spread (``1.4826 * MAD``) and their median uncertainty over
+    ``sqrt(n)``; the camera velocity is their median.  With no trusted window the summary is
+    not trusted (``reason`` ``"no window trusted"``) and is taken over every window, with an
+    uncertainty no smaller than their median one (it must not look precise).  A single
+    window is its own summary.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Window rows as :func:`altitude_series` makes them (at least one).
+    frames : int
+        Frames of the whole input.
+
+    Returns
+    -------
+    dict
+        ``altitude_m``, ``altitude_std_m`` (1 sigma), ``camera_velocity_mps`` (the camera
+        relative to the water surface, image +x columns / +y rows, m/s), ``quality`` (mean
+        over every window), ``trusted``, ``reason`` (None when trusted), ``mode``,
+        ``frames``, ``n_modes``, ``signal``, ``windows`` and ``trusted_windows``.
+    """
+    if not rows:
+        msg = "rows must hold at least one window; got none"
+        raise ValueError(msg)
+    n_trusted = sum(bool(r["trusted"]) for r in rows)
+    if len(rows) == 1:
+        summary = dict(rows[0])
+        for key in ("start_frame", "stop_frame", "time_s"):
+            summary.pop(key, None)
+        summary["frames"] = int(frames)
+    else:
+        trusted = n_trusted > 0
+        used = [r for r in rows if r["trusted"]] if trusted else rows
+        alts = np.array([r["altitude_m"] for r in used])
+        q = np.array([r["quality"] for r in used])
+        stds = np.array([r["altitude_std_m"] for r in used])
+        med = _weighted_median(alts, q + 1e-9)
+        spread = float(1.4826 * np.median(np.abs(alts - med)))
+        if trusted:
+            std = max(spread, float(np.median(stds)) / math.sqrt(len(used)))
+        else:
+            std = max(spread, float(np.median(stds)))
+        vel = np.median(np.array([r["camera_velocity_mps"] for r in used]), axis=0)
+        summary = {"altitude_m": med, "altitude_std_m": float(std),
+                   "camera_velocity_mps": [float(vel[0]), float(vel[1])],
+                   "quality": float(np.mean([r["quality"] for r in rows])),
+                   "trusted": trusted, "reason": None if trusted else NO_TRUSTED_WINDOW,
+                   "mode": rows[0]["mode"], "frames": int(frames),
+                   "n_modes": int(np.median([r["n_modes"] for r in used])),
+                   "signal": Counter(r.get("signal", "") for r in used).most_common(1)[0][0]}
+    summary["windows"] = len(rows)
+    summary["trusted_windows"] = n_trusted
+    return summary
+
+
+def _csv_text(rows: list[dict[str, Any]]) -> str:
+    """``altitude.csv``: one line per window (:data:`CSV_COLUMNS`)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for r in rows:
+        vals = {**r, "camera_vx_mps": r["camera_velocity_mps"][0],
+                "camera_vy_mps": r["camera_velocity_mps"][1], "trusted": int(bool(r["trusted"])),
+                "reason": r["reason"] or ""}
+        w.writerow([f"{vals[c]:.6g}" if isinstance(vals[c], float) else vals[c]
+                    for c in CSV_COLUMNS])
+    return buf.getvalue()
+
+
+def _write_series(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
+    """Write ``altitude.csv``, ``altitude.json`` and ``altitude.png`` into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "altitude.csv", _csv_text(rows))
+    atomic_write_text(out / "altitude.json",
+                      json.dumps({"summary": summary, "windows": rows}, indent=2) + "\n")
+    # matplotlib is imported here only: it costs the command line's start-up otherwise
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.array([r["time_s"] for r in rows])
+    a = np.array([r["altitude_m"] for r in rows])
+    sd = np.array([r["altitude_std_m"] for r in rows])
+    ok = np.array([bool(r["trusted"]) for r in rows])
+    fig, ax = plt.subplots(figsize=(6, 3.2))
+    ax.fill_between(t, a - sd, a + sd, alpha=0.3, label="±1 std")
+    ax.plot(t, a, "-", color="C0", lw=1)
+    ax.plot(t[ok], a[ok], "o", ms=3, color="C0", label="altitude (trusted)")
+    if not ok.all():
+        ax.plot(t[~ok], a[~ok], "x", ms=4, color="C3", label="not trusted")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("altitude (m)")
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(out / "altitude.png", dpi=120)
+    plt.close(fig)
+
+
+__all__ = ["CSV_COLUMNS", "NO_TRUSTED_WINDOW", "altitude_series", "summarize"]

@@ -1229,8 +1229,11 @@ class DispersionAltimeter:
         logh, u = fit["logh"], fit["u"]
         vals, local = fit["vals"], fit["local"]
         n = vals.shape[1]
+        # groups are bands of wavenumber: the shell of the true altitude is the same at every
+        # wavenumber, while the optics' products (sum frequencies faster than the shell,
+        # difference frequencies slower) pose as altitudes that change with it
         labels = np.empty(n, dtype=np.int64)
-        labels[np.random.default_rng(1).permutation(n)] = np.arange(n) % self.n_groups
+        labels[np.argsort(p["kappa"], kind="stable")] = np.arange(n) * self.n_groups // n
         # per-group mean curves over the fine grid from one pass over the (grid, mode) matrix
         sums = np.stack([np.bincount(labels, weights=row, minlength=self.n_groups)
                          for row in vals], axis=1)

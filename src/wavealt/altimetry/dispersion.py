@@ -19,7 +19,7 @@ wave explains as a function of the phase step per frame (a whitened, sharpened p
 of the mode's complex amplitudes over the clip), and scores a candidate
 ``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts:
 
-* **aided** (the camera's velocity over the water known, e.g. from satellite navigation):
+* **exact** (the camera's velocity over the water known, e.g. from satellite navigation):
   a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;
 * **blind** (velocity unknown): a per-mode phase-step fit (cross-spectra of consecutive
   frames, Gauss–Newton with Tukey weights on ``(log altitude, u)``) gives a start, and the
@@ -29,10 +29,23 @@ of the mode's complex amplitudes over the clip), and scores a candidate
   add difference-frequency products that move slower than the waves; the profile needs a
   clip long enough to resolve them (about 1 s).
 
-Quality is the relative prominence of the peak (textures without dispersion make no
-prominent peak); the uncertainty is the spread of the peak over groups of modes plus a
-systematic floor, inflated when the quality is low.  Glint is first clipped (per-pixel
-spikes far above the sequence's robust spread), or removed with the colour (chroma) signal.
+With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehicle's
+navigation, the water's current unknown) exact fits at velocities spread over the prior
+propagate its uncertainty into the altitude's.
+
+Every result carries a trust decision (:meth:`DispersionAltimeter._judge`): the shell's
+peak must stand out of what random phase steps would give (significance), be prominent in
+the altitude scan (quality), have a 3-sigma interval within 10 % of the altitude, and lie
+inside the altitude range searched.  The uncertainty is the spread of the peak over bands
+of wavenumber (the true shell gives one altitude at every wavenumber; the optics' products
+do not) plus a systematic floor; an untrusted window's interval spans the whole range.
+Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or
+removed with the colour (chroma) signal.
+
+References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
+image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;
+Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with the shell;
+Spencer, Shah & Guha (IEEE TIP 2006), image scale from dispersion.
 """
 
 from __future__ import annotations
@@ -971,7 +984,7 @@ class DispersionAltimeter:
         return res
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
-             velocity_mps: tuple[float, float] | None) -> DispersionResult:
+             velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
         """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`)."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
@@ -980,7 +993,8 @@ class DispersionAltimeter:
                 # luminance's clip leaves in.  The chroma is free of it; a well-graded chroma
                 # fit stands, else the luminance's is tried and the better kept (the realistic
                 # preset's chroma holds colour content that does not follow the waves).
-                res = self._fit_signal(self._chroma(arr, weights), fps, focal_px, velocity_mps)
+                res = self._fit_signal(self._chroma(arr, weights), "chroma", fps, focal_px,
+                                       velocity_mps)
                 # (blind fits grade lower, their profile being broader: checked only when
                 # untrusted; checking them at 0.85 fitted both on most 30-frame glinty windows,
                 # 0.54 -> 1.2 s each, for no gain: 1.34 -> 1.40 %)
@@ -988,13 +1002,23 @@ class DispersionAltimeter:
                          else TRUSTED_QUALITY)
                 if res.quality >= check:
                     return res
-                alt = self._fit_signal(self._luma(arr), fps, focal_px, velocity_mps)
+                alt = self._fit_signal(self._luma(arr), "luma", fps, focal_px, velocity_mps)
                 return alt if alt.quality >= res.quality else res
-        return self._fit_signal(self._signal(arr)[0], fps, focal_px, velocity_mps)
+        return self._fit_signal(*self._signal(arr), fps=fps, focal_px=focal_px,
+                                velocity_mps=velocity_mps)
 
-    def _fit_signal(self, signal: np.ndarray, fps: float, focal_px: float,
-                    velocity_mps: tuple[float, float] | None) -> DispersionResult:
-        """Aided or blind fit to one scalar ``(T, H, W)`` sequence (:meth:`estimate`)."""
+    def _fit_signal(self, signal: np.ndarray, kind: str, fps: float, focal_px: float,
+                    velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
+        """Fit to one scalar ``(T, H, W)`` sequence of ``kind`` (``"luma"``/``"chroma"``),
+        the path taken recorded in the result's ``signal``."""
+        res = self._fit_path(signal, fps, focal_px, velocity_mps)
+        res.signal = f"{kind}/{res.signal or 'corners'}"
+        return res
+
+    def _fit_path(self, signal: np.ndarray, fps: float, focal_px: float,
+                  velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
+        """Exact, prior or blind fit to one scalar sequence (:meth:`estimate`); a result from
+        the whole frame rather than the corner tiles says ``signal="full"``."""
         t = signal.shape[0]
         if float(np.mean(np.var(signal[:, ::4, ::4], axis=0))) <= 1e-12:
             return self._failed(t)
@@ -1011,6 +1035,7 @@ class DispersionAltimeter:
                                   velocity_mps[:2])
                 if alt.quality > res.quality:
                     res = alt
+                    res.signal = "full"
             return res
         if velocity_mps is not None:
             return self._prior(p, t, fps, focal_px, velocity_mps)
@@ -1183,7 +1208,8 @@ class DispersionAltimeter:
         resolves them (about 1 s); along the profile, a drift that trades against altitude
         leaves a flat profile, which the quality reports.  The profile follows the ridge
         from the phase-step fit ``(logh0, u0)`` (``u0`` in the periodogram's convention)
-        over ``x1/2.2 .. x1.5`` of its altitude (its bias is upward); the most prominent
+        over ``x1/4 .. x1.5`` of its altitude (its bias is mostly upward, but a start two to
+        three times too high is common on rendered frames); the most prominent
         peak is refined on all modes like the aided fit.
         """
         lo, hi = (math.log(a) for a in self.altitude_range_m)
@@ -1299,10 +1325,12 @@ def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:
 
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                       velocity_mps: tuple[float, float] | None = None,
-                      **kw: Any) -> DispersionResult:
-    """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=, velocity_mps=)``."""
+                      velocity_sigma_mps: float = 0.0, **kw: Any) -> DispersionResult:
+    """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
+    velocity_mps=, velocity_sigma_mps=)``."""
     return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,
-                                              velocity_mps=velocity_mps)
+                                              velocity_mps=velocity_mps,
+                                              velocity_sigma_mps=velocity_sigma_mps)
 
 
 __all__ = ["DISPERSIONS", "MODES", "DispersionAltimeter", "DispersionResult", "deglint",

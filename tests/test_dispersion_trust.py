@@ -1,0 +1,160 @@
+"""The altimeter's trust contract: what it cannot measure it says so, in every mode.
+
+Properties, not benchmark scenes: inputs without dispersion (noise, a frozen clip, a still
+frame carried across the image) are never trusted; a trusted estimate lies within 10 % of
+the truth and its 3-sigma interval covers the error; a wrong velocity prior is flagged or
+corrected, never confidently wrong.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wavealt.altimetry.dispersion import MAX_TRUSTED_3SIGMA, DispersionAltimeter
+from wavealt.scenario import preset_config
+from wavealt.simulate import generate_sequence
+
+FOCAL_PX = 200.0
+
+
+def _realistic(h: float, drift_mps: float, seed: int, *, frames: int = 30, size: int = 128):
+    cfg = preset_config("realistic", size=size, frames=frames, altitude_m=(h, h),
+                        wind_speed_mps=(6.0, 6.0), camera_speed_mps=(drift_mps, drift_mps))
+    sc = cfg.sample_scenario(seed)
+    return generate_sequence(sc, cfg), sc, cfg
+
+
+def _paper_slopes(h: float, seed: int, *, size: int = 128):
+    cfg = preset_config("paper", size=size, altitude_m=(h, h), wind_speed_mps=(7.0, 7.0),
+                        camera_speed_mps=(0.3, 0.3))
+    sc = cfg.sample_scenario(seed)
+    return generate_sequence(sc, cfg), sc, cfg
+
+
+def _normalise(x: np.ndarray) -> np.ndarray:
+    return ((x - x.min()) / (x.max() - x.min())).astype(np.float32)
+
+
+def _assert_honest(res, true_alt: float) -> None:
+    """The contract every estimate keeps: 3 sigma covers the error; trusted means within 10 %
+    and a 3-sigma interval no wider than that."""
+    err = abs(res.altitude_m - true_alt)
+    assert err <= 3.0 * res.altitude_std_m, (res, true_alt)
+    if res.trusted:
+        assert res.reason is None
+        assert err / true_alt <= 0.10, (res, true_alt)
+        assert 3.0 * res.altitude_std_m / res.altitude_m <= MAX_TRUSTED_3SIGMA + 1e-12
+    else:
+        assert isinstance(res.reason, str) and res.reason
+
+
+@pytest.mark.parametrize("mode", ["exact", "blind"])
+@pytest.mark.parametrize(("size", "seed"), [(64, 0), (128, 1), (128, 2)])
+def test_colour_noise_is_never_trusted(mode: str, size: int, seed: int) -> None:
+    frames = np.random.default_rng(seed).random((12, size, size, 3)).astype(np.float32)
+    kw = {"velocity_mps": (0.0, 0.0)} if mode == "exact" else {}
+    res = DispersionAltimeter().estimate(frames, fps=30.0, focal_px=0.8 * size, **kw)
+    assert not res.trusted
+    assert res.mode == mode
+    # untrusted: the 3-sigma interval spans the altitude range searched
+    lo, hi = DispersionAltimeter().altitude_range_m
+    assert 3.0 * res.altitude_std_m >= hi - lo - 1e-9
+
+
+@pytest.mark.parametrize("mode", ["exact", "blind"])
+def test_frozen_waves_are_never_trusted(mode: str) -> None:
+    data, sc, cfg = _realistic(4.0, 0.0, 3, frames=12)
+    frozen = np.repeat(data.clean[:1], 12, axis=0)
+    kw = {"velocity_mps": (0.0, 0.0)} if mode == "exact" else {}
+    res = DispersionAltimeter().estimate(frozen, fps=cfg.fps, focal_px=cfg.focal_px, **kw)
+    assert not res.trusted
+
+
+@pytest.mark.parametrize("mode", ["exact", "blind"])
+@pytest.mark.parametrize("shift", [(1, 0), (2, 1)])
+def test_a_still_frame_carried_across_the_image_is_never_trusted(mode: str, shift) -> None:
+    """Advection without dispersion: one sea frame translated by whole pixels per frame."""
+    data, sc, cfg = _realistic(5.0, 0.0, 4, frames=30)
+    still = data.clean[0]
+    frames = np.stack([np.roll(still, (t * shift[1], t * shift[0]), axis=(0, 1))
+                       for t in range(30)])
+    # the camera's velocity that makes the pattern move so, at the true altitude
+    v = (-shift[0] * cfg.fps * 5.0 / cfg.focal_px, -shift[1] * cfg.fps * 5.0 / cfg.focal_px)
+    kw = {"velocity_mps": v} if mode == "exact" else {}
+    res = DispersionAltimeter().estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px, **kw)
+    assert not res.trusted
+
+
+@pytest.mark.parametrize(("h", "drift", "seed"), [(2.0, 0.3, 5), (6.0, 0.8, 6), (11.0, 0.5, 7)])
+def test_blind_through_the_realistic_renderer_is_honest(h: float, drift: float, seed: int) -> None:
+    """Blind, 1 s: every estimate keeps the contract, whether or not it is trusted."""
+    data, sc, cfg = _realistic(h, drift, seed)
+    est = DispersionAltimeter()
+    for frames in (data.clean, data.glinty):
+        res = est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px)
+        assert res.mode == "blind"
+        _assert_honest(res, h)
+
+
+@pytest.mark.parametrize(("h", "seed"), [(3.0, 8), (8.0, 9)])
+def test_exact_through_the_realistic_renderer_recovers_the_altitude(h: float, seed: int) -> None:
+    data, sc, cfg = _realistic(h, 0.4, seed, frames=30, size=256)
+    res = DispersionAltimeter().estimate(data.clean, fps=cfg.fps, focal_px=cfg.focal_px,
+                                         velocity_mps=sc.camera_velocity_mps)
+    assert res.mode == "exact"
+    _assert_honest(res, h)
+    assert abs(res.altitude_m - h) / h < 0.03
+    # the camera's velocity over the water comes back as it went in
+    assert np.allclose(res.camera_velocity_mps, sc.camera_velocity_mps, atol=1e-6)
+
+
+@pytest.mark.parametrize("offset_mps", [(1.5, 0.0), (0.0, -2.0)])
+def test_a_prior_that_excludes_the_truth_is_not_confidently_wrong(offset_mps) -> None:
+    """The prior's mean 1.5-2 m/s from the camera's true velocity over the water, sigma
+    0.3 m/s (five sigma and more): flagged, or right."""
+    h = 4.0
+    data, sc, cfg = _realistic(h, 0.5, 10, frames=10)
+    v = np.add(sc.camera_velocity_mps, offset_mps)
+    res = DispersionAltimeter().estimate(data.clean, fps=cfg.fps, focal_px=cfg.focal_px,
+                                         velocity_mps=tuple(v), velocity_sigma_mps=0.3)
+    assert res.mode == "prior"
+    _assert_honest(res, h)
+
+
+def test_the_prior_widens_the_uncertainty_of_the_exact_fit() -> None:
+    """Same clip, same mean velocity: sigma > 0 can only add uncertainty."""
+    data, sc, cfg = _realistic(3.0, 0.5, 11, frames=10)
+    est = DispersionAltimeter()
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
+    exact = est.estimate(data.clean, **kw)
+    prior = est.estimate(data.clean, velocity_sigma_mps=0.5, **kw)
+    assert (exact.mode, prior.mode) == ("exact", "prior")
+    assert prior.altitude_m == pytest.approx(exact.altitude_m)
+    assert prior.altitude_std_m >= exact.altitude_std_m
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known miss (issue 16): imagery of the squared slope alone carries sum-frequency "
+    "products between the shell and its harmonic; exact fits read 0.62-0.99 h and some are "
+    "trusted (measured: 2 of 6 scenes at 256 px, 0.62 h and 0.87 h)"))
+def test_squared_slope_imagery_is_not_read_low_and_trusted() -> None:
+    est = DispersionAltimeter(dispersion="gravity")
+    for h, seed in ((2.0, 0), (5.0, 1), (9.0, 2), (3.0, 3), (12.0, 4), (1.5, 5)):
+        data, sc, cfg = _paper_slopes(h, seed, size=256)
+        frames = _normalise(data.slope_x**2 + data.slope_y**2)
+        res = est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px,
+                           velocity_mps=sc.camera_velocity_mps)
+        _assert_honest(res, h)
+
+
+def test_bad_prior_arguments_are_refused() -> None:
+    frames = np.random.default_rng(0).random((10, 32, 32)).astype(np.float32)
+    est = DispersionAltimeter()
+    with pytest.raises(ValueError, match="velocity_sigma_mps"):
+        est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=(0.0, 0.0),
+                     velocity_sigma_mps=-1.0)
+    with pytest.raises(ValueError, match="velocity_mps must be two numbers"):
+        est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=(1.0,))
+    with pytest.raises(ValueError, match="velocity_mps must be two numbers"):
+        est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=1.0)

@@ -39,17 +39,24 @@ def cli() -> None:
     """Camera altimetry over the sea, through sun glint."""
 
 
-def _range(text: str | None, name: str) -> tuple[float, float] | None:
-    """Parse ``LO,HI`` or a single value (``LO = HI``) into a range of finite numbers."""
-    if text is None:
-        return None
-    msg = f"--{name} must be a finite number or LO,HI; got {text!r}"
+def _numbers(text: str, name: str, counts: tuple[int, ...], expected: str) -> list[float]:
+    """Comma-separated finite numbers, as many as one of ``counts``; else a one-line error
+    naming option ``--name`` and what it ``expected``."""
+    msg = f"--{name} must be {expected}; got {text!r}"
     try:
         vals = [float(p) for p in text.split(",")]
     except ValueError:
         raise ValueError(msg) from None
-    if len(vals) not in (1, 2) or not all(math.isfinite(v) for v in vals):
+    if len(vals) not in counts or not all(math.isfinite(v) for v in vals):
         raise ValueError(msg)
+    return vals
+
+
+def _range(text: str | None, name: str) -> tuple[float, float] | None:
+    """Parse ``LO,HI`` or a single value (``LO = HI``) into a range of finite numbers."""
+    if text is None:
+        return None
+    vals = _numbers(text, name, (1, 2), "a finite number or LO,HI")
     return vals[0], vals[-1]
 
 
@@ -57,13 +64,7 @@ def _vector(text: str | None, name: str, metavar: str = "X,Y") -> tuple[float, f
     """Parse ``X,Y``: exactly two finite numbers (a single one is an error, not ``X,X``)."""
     if text is None:
         return None
-    msg = f"--{name} must be two finite numbers {metavar}; got {text!r}"
-    try:
-        vals = [float(p) for p in text.split(",")]
-    except ValueError:
-        raise ValueError(msg) from None
-    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
-        raise ValueError(msg)
+    vals = _numbers(text, name, (2,), f"two finite numbers {metavar}")
     return vals[0], vals[1]
 
 

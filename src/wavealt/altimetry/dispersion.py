@@ -153,8 +153,8 @@ class DispersionResult:
     frames: int
     n_modes: int
     signal: str = ""
-    #: Mean explained share at the peak (comparable between fits of one periodogram only).
-    peak_score: float = field(default=0.0, repr=False, compare=False)
+    #: How far the shell's peak stands above the score of random phase steps, in standard
+    #: deviations of it (``MIN_SIGNIFICANCE``); internal to the trust decision.
     significance: float = field(default=0.0, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -164,7 +164,7 @@ class DispersionResult:
         for key in ("altitude_m", "altitude_std_m", "quality"):
             d[key] = float(d[key])
         d["trusted"] = bool(self.trusted)
-        del d["peak_score"], d["significance"]
+        del d["significance"]
         return d
 
 
@@ -1275,9 +1275,11 @@ class DispersionAltimeter:
         # bumps on a scan that rises toward the edge of the range.
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
-        q_all = p["q"]
-        null_mean = float(q_all.mean())
-        null_sd = float(np.sqrt(np.sum(q_all.var(axis=1)))) / q_all.shape[0]
+        if "_null" not in p:  # one periodogram serves several fits (prior mode: nine)
+            q_all = p["q"]
+            p["_null"] = (float(q_all.mean()),
+                          float(np.sqrt(np.sum(q_all.var(axis=1)))) / q_all.shape[0])
+        null_mean, null_sd = p["_null"]
         z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_sd, 1e-30)
         rel_prom = fit["prominence"] / max(float(np.max(fit["scan"])), 1e-30)
         q = float(np.clip((rel_prom - 0.1) / 0.3, 0.0, 1.0))
@@ -1291,7 +1293,7 @@ class DispersionAltimeter:
         return DispersionResult(altitude_m=float(alt), altitude_std_m=float(alt * sd_logh),
                                 camera_velocity_mps=vel, quality=q, trusted=False, reason=None,
                                 mode="blind", frames=int(t), n_modes=int(n),
-                                peak_score=float(np.max(vals.mean(axis=1))), significance=z)
+                                significance=z)
 
 
 def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float, hi: float,

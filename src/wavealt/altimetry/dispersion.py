@@ -106,9 +106,6 @@ EDGE_FACTOR = 1.15
 CHROMA_CHECK_QUALITY = 0.85
 
 
-MODES = ("blind", "prior", "exact")
-
-
 @dataclass
 class DispersionResult:
     """The outcome of one dispersion fit.
@@ -961,9 +958,10 @@ class DispersionAltimeter:
         return self._judge(res)
 
     def _judge(self, res: DispersionResult) -> DispersionResult:
-        """The trust decision of a finished fit, in place: a prominent shell peak, a 3-sigma
-        interval within ``MAX_TRUSTED_3SIGMA`` of the altitude, and an estimate inside the
-        altitude range (not pinned to an end of it)."""
+        """The trust decision of a finished fit, in place: a shell peak significant against
+        random phase steps (``MIN_SIGNIFICANCE``) and prominent (``TRUSTED_QUALITY``), a
+        3-sigma interval within ``MAX_TRUSTED_3SIGMA`` of the altitude, and an estimate
+        inside the altitude range (not within ``EDGE_FACTOR`` of an end of it)."""
         lo, hi = self.altitude_range_m
         rel3 = 3.0 * res.altitude_std_m / res.altitude_m
         reason = res.reason
@@ -984,8 +982,9 @@ class DispersionAltimeter:
         return res
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
-             velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
-        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`)."""
+             prior: tuple[float, float, float] | None) -> DispersionResult:
+        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`); ``prior``:
+        the camera's velocity ``(vx, vy)`` and its sigma (0: exact), None for blind."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
@@ -994,29 +993,29 @@ class DispersionAltimeter:
                 # fit stands, else the luminance's is tried and the better kept (the realistic
                 # preset's chroma holds colour content that does not follow the waves).
                 res = self._fit_signal(self._chroma(arr, weights), "chroma", fps, focal_px,
-                                       velocity_mps)
+                                       prior)
                 # (blind fits grade lower, their profile being broader: checked only when
                 # untrusted; checking them at 0.85 fitted both on most 30-frame glinty windows,
                 # 0.54 -> 1.2 s each, for no gain: 1.34 -> 1.40 %)
-                check = (CHROMA_CHECK_QUALITY if velocity_mps is not None and velocity_mps[2] == 0
+                check = (CHROMA_CHECK_QUALITY if prior is not None and prior[2] == 0
                          else TRUSTED_QUALITY)
                 if res.quality >= check:
                     return res
-                alt = self._fit_signal(self._luma(arr), "luma", fps, focal_px, velocity_mps)
+                alt = self._fit_signal(self._luma(arr), "luma", fps, focal_px, prior)
                 return alt if alt.quality >= res.quality else res
         return self._fit_signal(*self._signal(arr), fps=fps, focal_px=focal_px,
-                                velocity_mps=velocity_mps)
+                                prior=prior)
 
     def _fit_signal(self, signal: np.ndarray, kind: str, fps: float, focal_px: float,
-                    velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
+                    prior: tuple[float, float, float] | None) -> DispersionResult:
         """Fit to one scalar ``(T, H, W)`` sequence of ``kind`` (``"luma"``/``"chroma"``),
         the path taken recorded in the result's ``signal``."""
-        res = self._fit_path(signal, fps, focal_px, velocity_mps)
+        res = self._fit_path(signal, fps, focal_px, prior)
         res.signal = f"{kind}/{res.signal or 'corners'}"
         return res
 
     def _fit_path(self, signal: np.ndarray, fps: float, focal_px: float,
-                  velocity_mps: tuple[float, float, float] | None) -> DispersionResult:
+                  prior: tuple[float, float, float] | None) -> DispersionResult:
         """Exact, prior or blind fit to one scalar sequence (:meth:`estimate`); a result from
         the whole frame rather than the corner tiles says ``signal="full"``."""
         t = signal.shape[0]
@@ -1025,20 +1024,20 @@ class DispersionAltimeter:
         p = self._periodogram(signal)
         if p["kappa"].size < 12:
             return self._failed(t)
-        if velocity_mps is not None and velocity_mps[2] == 0:
-            res = self._aided(p, t, fps, focal_px, velocity_mps[:2])
+        if prior is not None and prior[2] == 0:
+            res = self._aided(p, t, fps, focal_px, prior[:2])
             if res.quality < TRUSTED_QUALITY and p["corners"]:
                 # A fast drift carries the water across a corner tile within the clip (3 m/s
                 # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer.
                 # Realistic preset, 30 frames, 2.9 m at 2.9 m/s: +593 % flagged -> +0.3 %.
                 alt = self._aided(self._periodogram(signal, corners=False), t, fps, focal_px,
-                                  velocity_mps[:2])
+                                  prior[:2])
                 if alt.quality > res.quality:
                     res = alt
                     res.signal = "full"
             return res
-        if velocity_mps is not None:
-            return self._prior(p, t, fps, focal_px, velocity_mps)
+        if prior is not None:
+            return self._prior(p, t, fps, focal_px, prior)
         m = self._modes(signal)
         if m["kappa"].size < 12:
             return self._failed(t)
@@ -1065,13 +1064,10 @@ class DispersionAltimeter:
         sigma)``): exact fits at the prior's mean and at the eight points ``sigma`` away
         along and between the image axes.
 
-        The estimate is the fit at the mean (picking the fit whose peak stands highest chose
-        velocities that freeze the waves: 109 % off on 10-frame clips); the spread of the
-        nine altitudes adds to its uncertainty, so
-        an altitude that depends on the unknown drift (a short clip, waves one way) is not
-        trusted, while one that does not (waves both ways pin the drift) keeps the exact
-        fit's precision.  A free search over the velocity box was tried first and failed on
-        10-frame clips, where the drift trades against the altitude along a broad ridge.
+        The estimate is the fit at the mean; the spread of the nine altitudes adds to its
+        uncertainty, so an altitude that depends on the unknown drift (a short clip, waves
+        one way) is not trusted, while one that does not (waves both ways pin the drift)
+        keeps the exact fit's precision (what was tried instead: ``docs/dispersion.md``).
         """
         vx, vy, sigma = prior
         offs = [(0.0, 0.0)] + [(sigma * math.cos(a), sigma * math.sin(a))
@@ -1335,5 +1331,5 @@ def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                                               velocity_sigma_mps=velocity_sigma_mps)
 
 
-__all__ = ["DISPERSIONS", "MODES", "DispersionAltimeter", "DispersionResult", "deglint",
+__all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
            "estimate_altitude"]

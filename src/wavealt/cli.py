@@ -173,9 +173,11 @@ def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
 @click.option("--pretrained", type=click.Path(path_type=Path), default=None,
               help="Local torchvision-style state dict to start from (nothing is downloaded).")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last epoch.")
+@click.option("--device", default="auto", show_default=True,
+              help="auto (CUDA, then MPS, then CPU), cpu, cuda, cuda:N or mps.")
 def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, batch_size: int,
           lr: float, seed: int, crop_px: int | None, frames_per_sequence: int, temporal: bool,
-          workers: int, threads: int, pretrained: Path | None, resume: bool) -> None:
+          workers: int, threads: int, pretrained: Path | None, resume: bool, device: str) -> None:
     """Train the CNN altimeter on DATASET (paper Table 1)."""
     from wavealt.altimetry.train import TrainConfig
     from wavealt.altimetry.train import train as train_run
@@ -184,7 +186,7 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
                       lr=lr, seed=seed, crop_px=crop_px, frames_per_sequence=frames_per_sequence,
                       temporal=temporal, num_workers=workers, threads=threads,
                       pretrained=str(pretrained) if pretrained else None)
-    res = train_run(dataset, run, cfg, resume=resume)
+    res = train_run(dataset, run, cfg, resume=resume, device=device)
     click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "
                f"{res['best_val_mae_m']:.3f} m)")
 
@@ -202,12 +204,15 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
 @click.option("--split", default="test", show_default=True, help="Split to evaluate.")
 @click.option("--out", type=click.Path(path_type=Path), required=True,
               help="Folder for metrics.json, table.md, predictions.csv and Fig. 5/6.")
-def evaluate(dataset: Path, estimator: str, conditions: str | None, split: str, out: Path) -> None:
+@click.option("--device", default="auto", show_default=True,
+              help="auto (CUDA, then MPS, then CPU), cpu, cuda, cuda:N or mps.")
+def evaluate(dataset: Path, estimator: str, conditions: str | None, split: str, out: Path,
+             device: str) -> None:
     """Evaluate an altimeter on DATASET per condition (paper Table 2, Fig. 5, Fig. 6)."""
     from wavealt.evaluation import evaluate as run_eval
 
     conds = [c.strip() for c in conditions.split(",") if c.strip()] if conditions else None
-    res = run_eval(dataset, estimator, conditions=conds, out=out, split=split)
+    res = run_eval(dataset, estimator, conditions=conds, out=out, split=split, device=device)
     click.echo((out / "table.md").read_text(encoding="utf-8").rstrip())
     click.echo(f"metrics: {out / 'metrics.json'} ({len(res.metrics)} conditions)")
 
@@ -217,11 +222,22 @@ def evaluate(dataset: Path, estimator: str, conditions: str | None, split: str, 
 @click.option("--scale", type=click.Choice(["quick", "paper"]), default="quick",
               show_default=True, help="quick: small images, small model (~10 min on 2 cores); "
               "paper: the paper's protocol.")
-def reproduce(out: Path, scale: str) -> None:
+@click.option("--device", default="auto", show_default=True,
+              help="auto (CUDA, then MPS, then CPU), cpu, cuda, cuda:N or mps.")
+@click.option("--train", "train_runs", default=None, metavar="RUNS",
+              help="CNN runs to train, comma-separated (clean, glinty, residual, tmf-min, "
+                   "temporal-clean, temporal-glinty) [all]; 'clean' alone is the paper's own "
+                   "experiment, the CPU-sized paper run.")
+@click.option("--threads", type=int, default=None,
+              help="torch threads (0 = every core) [the scale's: quick 1, paper 0].")
+def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
+              threads: int | None) -> None:
     """Run the paper end to end into OUT and write report.md / report.html (resumable)."""
     from wavealt.report import reproduce as run_reproduce
 
-    paths = run_reproduce(out, scale=scale)
+    names = [c.strip() for c in train_runs.split(",") if c.strip()] if train_runs else None
+    paths = run_reproduce(out, scale=scale, device=device, train_conditions=names,
+                          threads=threads)
     for p in paths:
         click.echo(f"report: {p}")
 

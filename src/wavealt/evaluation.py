@@ -114,11 +114,11 @@ class ConstantEstimator:
 class CnnEstimator:
     """The CNN of a training run folder (best checkpoint), mean over a sequence's frames."""
 
-    def __init__(self, run: Path | str) -> None:
+    def __init__(self, run: Path | str, *, device: str = "auto") -> None:
         from wavealt.altimetry.train import load_run
 
         self.run = Path(run)
-        self.predictor = load_run(self.run)
+        self.predictor = load_run(self.run, device=device)
         cfg = self.predictor.config
         kind = "temporal " if cfg.temporal else ""
         self.name = f"cnn ({kind}{cfg.model}, trained on {cfg.condition})"
@@ -267,11 +267,12 @@ def train_split_mean_m(dataset: Any) -> float:
     return float(np.mean([r.altitude_m for r in recs]))
 
 
-def parse_estimator(spec: str, dataset: Any = None) -> Estimator:
-    """Build an estimator from its spec string (see the module docstring)."""
+def parse_estimator(spec: str, dataset: Any = None, *, device: str = "auto") -> Estimator:
+    """Build an estimator from its spec string (see the module docstring); a CNN runs on
+    ``device``."""
     kind, _, arg = str(spec).partition(":")
     if kind == "cnn" and arg:
-        return CnnEstimator(arg)
+        return CnnEstimator(arg, device=device)
     if kind == "constant" and arg:
         from wavealt.altimetry.train import CONFIG_NAME
 
@@ -338,7 +339,8 @@ def _baseline_for(est: Estimator, dataset: Any) -> ConstantEstimator:
 
 def evaluate(dataset: Path | str, estimator: str | Estimator, *,
              conditions: Sequence[str] | None = None, out: Path | str | None = None,
-             split: str = "test", progress: bool = True, figures: bool = True) -> EvaluationResult:
+             split: str = "test", progress: bool = True, figures: bool = True,
+             device: str = "auto") -> EvaluationResult:
     """Evaluate ``estimator`` on the ``split`` sequences of each condition.
 
     Parameters
@@ -353,11 +355,13 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         Folder for metrics.json, predictions.csv, table.md and Fig. 5/6.
     split : str
         ``test`` (default), ``val`` or ``train``.
+    device : str
+        Where a CNN estimator runs (``auto``, ``cpu``, ``cuda[:N]``, ``mps``).
     """
     from wavealt.dataset import Dataset, atomic_write_text
 
     ds = Dataset(dataset)
-    est = parse_estimator(estimator, ds) if isinstance(estimator, str) else estimator
+    est = parse_estimator(estimator, ds, device=device) if isinstance(estimator, str) else estimator
     if isinstance(est, DispersionEstimator):
         est.bind(ds)
     conds = list(conditions) if conditions else ds.conditions

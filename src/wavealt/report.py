@@ -20,13 +20,14 @@ Scales (``SCALES``):
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import json
 import math
 import platform
 import re
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -111,7 +112,9 @@ class _Stages:
         atomic_write_text(self.path, json.dumps(self.data, indent=2) + "\n")
 
 
-def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -> list[Path]:
+def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
+              device: str = "auto", train_conditions: Sequence[str] | None = None,
+              threads: int | None = None) -> list[Path]:
     """Run the whole pipeline into ``out`` and write ``report.md`` and ``report.html``.
 
     Parameters
@@ -123,14 +126,31 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
         See the module docstring.
     progress : bool
         Progress bars.
+    device : str
+        Where the CNNs train and run: ``auto`` (CUDA, then MPS, then CPU), ``cpu``,
+        ``cuda[:N]`` or ``mps``.
+    train_conditions : sequence of str, optional
+        CNN runs to train, by name (``clean``, ``glinty``, ``temporal-clean``, ...); default:
+        the scale's. ``["clean"]`` is the paper's own experiment, the CPU-sized run.
+    threads : int, optional
+        torch threads (0 = every core); default: the scale's.
 
     Returns
     -------
     list of Path
         The two report files.
     """
+    from wavealt.altimetry.device import resolve_device
+
     check_choice("scale", scale, SCALES)
     sc = SCALES[scale]
+    resolve_device(device)  # an unavailable device fails before anything is written
+    runs_all = [*sc.train_conditions, *(f"temporal-{c}" for c in sc.temporal_conditions)]
+    wanted = list(train_conditions) if train_conditions else runs_all
+    for name in wanted:
+        check_choice("train condition", name, runs_all)
+    if threads is not None:
+        sc = dataclasses.replace(sc, threads=int(threads))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     stages = _Stages(out)
@@ -172,6 +192,8 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
         temporal = cond.startswith("temporal:")
         c = cond.split(":")[-1]
         name = f"{'temporal-' if temporal else ''}{c}"
+        if name not in wanted:
+            continue
         if c not in conditions:
             stages.data[f"train:{name}"] = {"status": f"skipped: condition {c!r} not in dataset",
                                             "seconds": 0.0}
@@ -184,7 +206,8 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
                               batch_size=sc.batch_size, lr=sc.lr,
                               frames_per_sequence=0 if temporal else sc.frames_per_sequence,
                               temporal=temporal, threads=sc.threads, crop_px=sc.crop_px)
-            res = train(ds_path, out / "runs" / name, cfg, resume=True, progress=progress)
+            res = train(ds_path, out / "runs" / name, cfg, resume=True, progress=progress,
+                        device=device)
             return {"best_epoch": res["best_epoch"], "best_val_mae_m": res["best_val_mae_m"],
                     "train_seconds": res["seconds"]}
 
@@ -204,7 +227,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True) -
             from wavealt.evaluation import evaluate
 
             res = evaluate(ds_path, spec, conditions=conditions, out=out / "eval" / name,
-                           progress=progress)
+                           progress=progress, device=device)
             return {"estimator": res.estimator, "metrics": res.metrics,
                     "baseline": res.baseline, "baseline_label": res.baseline_label}
 
@@ -318,8 +341,8 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
             L += [f"### {title}", "", "(not produced: its stage did not run)", ""]
 
     # training curves summary
-    L += ["## Training runs", "", "| Run | Model | Train condition | Temporal | Best epoch | Best val MAE (m) | Train time (s) |",
-          "|---|---|---|---|---:|---:|---:|"]
+    L += ["## Training runs", "", "| Run | Model | Train condition | Temporal | Best epoch | Best val MAE (m) | Train time (s) | s / epoch | Device |",
+          "|---|---|---|---|---:|---:|---:|---:|---|"]
     for name, path in runs.items():
         try:
             info = json.loads((path / "config.json").read_text(encoding="utf-8"))
@@ -328,8 +351,11 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
             continue
         best = min(hist, key=lambda h: h["val_mae_m"])
         t = info["train"]
+        dev = info.get("device", {})
+        dev_txt = f"{dev.get('name', 'cpu')} ({dev.get('device', 'cpu')}, {dev.get('precision', 'float32')}, {info.get('threads', '?')} threads)"
+        total_s = sum(h["seconds"] for h in hist)
         L.append(f"| {name} | {t['model']} | {t['condition']} | {t['temporal']} | {best['epoch']} | "
-                 f"{_f(best['val_mae_m'])} | {_f(sum(h['seconds'] for h in hist))} |")
+                 f"{_f(best['val_mae_m'])} | {_f(total_s)} | {_f(total_s / len(hist))} | {dev_txt} |")
 
     # stage times and configs
     L += ["", "## Run times", "", "| Stage | Status | Seconds |", "|---|---|---:|"]

@@ -62,6 +62,8 @@ from tqdm.auto import tqdm
 
 from wavealt._checks import check_known_keys
 from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, create_model, load_pretrained
+from wavealt.altimetry.device import (autocast, describe_device, prepare_model, resolve_device,
+                                     to_device)
 
 CHECKPOINT_LAST = "last.pt"
 CHECKPOINT_BEST = "best.pt"
@@ -303,6 +305,7 @@ class AltitudePredictor:
 
     def __init__(self, model: ResNetRegressor, info: dict[str, Any]) -> None:
         self.model = model.eval()
+        self.device = next(model.parameters()).device
         self.info = info
         self.config = TrainConfig.from_dict(info["train"])
         self.stats = info["stats"]
@@ -335,17 +338,20 @@ class AltitudePredictor:
     def _forward(self, batch: np.ndarray) -> torch.Tensor:
         inp = to_model_input(batch, temporal=self.config.temporal, mean=self.stats["input_mean"],
                              std=self.stats["input_std"])
-        y = self.model(inp)
+        with autocast(self.device):
+            y = self.model(to_device(inp, self.device)).float().cpu()
         return y * self.stats["target_std_m"] + self.stats["target_mean_m"]
 
 
-def load_run(run: Path | str, *, which: str = "best") -> AltitudePredictor:
-    """The predictor of a training run folder (``best`` or ``last`` checkpoint)."""
+def load_run(run: Path | str, *, which: str = "best", device: str = "cpu") -> AltitudePredictor:
+    """The predictor of a training run folder (``best`` or ``last`` checkpoint) on ``device``
+    (see :func:`wavealt.altimetry.device.resolve_device`)."""
     run = Path(run)
     name = {"best": CHECKPOINT_BEST, "last": CHECKPOINT_LAST}.get(which)
     if name is None:
         msg = f"which must be 'best' or 'last'; got {which!r}"
         raise ValueError(msg)
+    dev = resolve_device(device)
     ckpt_path = run / name
     cfg_path = run / CONFIG_NAME
     if not ckpt_path.is_file() or not cfg_path.is_file():
@@ -355,7 +361,7 @@ def load_run(run: Path | str, *, which: str = "best") -> AltitudePredictor:
     model = _build_model(TrainConfig.from_dict(info["train"]), info["stats"]["in_channels"])
     state = torch.load(ckpt_path, map_location="cpu", weights_only=False)
     model.load_state_dict(state["model"])
-    return AltitudePredictor(model, info)
+    return AltitudePredictor(prepare_model(model, dev), info)
 
 
 def _build_model(cfg: TrainConfig, in_channels: int) -> ResNetRegressor:
@@ -427,7 +433,7 @@ def _validate(model: ResNetRegressor, frames: np.ndarray, targets: np.ndarray,
 
 
 def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = None, *,
-          resume: bool = False, progress: bool = True) -> dict[str, Any]:
+          resume: bool = False, progress: bool = True, device: str = "auto") -> dict[str, Any]:
     """Train the altitude regressor on ``dataset`` into run folder ``out``.
 
     Parameters
@@ -443,6 +449,9 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         ``epochs`` may differ, to extend a finished run).  A run with no checkpoint starts fresh.
     progress : bool
         Show a progress bar with the training loss and the validation MAE.
+    device : str
+        ``auto`` (CUDA, then MPS, then CPU), ``cpu``, ``cuda[:N]`` or ``mps``; recorded in
+        ``config.json``. Not part of the config: a run may resume on another device.
 
     Returns
     -------
@@ -452,6 +461,7 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
     from wavealt.dataset import Dataset
 
     cfg = config or TrainConfig()
+    dev = resolve_device(device)
     ds = Dataset(dataset)
     ds.require_condition(cfg.condition)
     out = Path(out)
@@ -481,11 +491,13 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
             "splits": {"train": len(train_recs), "val": len(val_recs),
                        "test": len(ds.split("test"))},
             "train_sequence_ids": sorted(ids_train), "torch": torch.__version__,
-            "threads": n_threads, "objective": f"{cfg.loss} on (altitude_m - mean) / std"}
+            "threads": n_threads, "objective": f"{cfg.loss} on (altitude_m - mean) / std",
+            "device": describe_device(dev)}
 
     model = _build_model(cfg, stats["in_channels"])
     if cfg.pretrained:
         load_pretrained(model, cfg.pretrained)
+    model = prepare_model(model, dev)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=cfg.epochs)
     history: list[dict[str, float]] = []
@@ -533,26 +545,32 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         loader = torch.utils.data.DataLoader(
             items, batch_size=cfg.batch_size, shuffle=True, generator=gen,
             num_workers=cfg.num_workers, worker_init_fn=_seed_worker, collate_fn=_collate,
-            drop_last=drop_last)
+            drop_last=drop_last, pin_memory=dev.type == "cuda")
         total, count = 0.0, 0
+        data_s, t_data = 0.0, time.perf_counter()  # the input pipeline's share of the epoch
         for xb, yb in tqdm(loader, desc=f"epoch {epoch + 1}", disable=not progress,
                            leave=False, unit="batch"):
             inp = to_model_input(xb, temporal=cfg.temporal, mean=stats["input_mean"],
                                  std=stats["input_std"])
-            target = torch.from_numpy(yb)
-            loss = loss_fn(model(inp), target)
+            data_s += time.perf_counter() - t_data
+            target = to_device(torch.from_numpy(yb), dev)
+            with autocast(dev):
+                pred = model(to_device(inp, dev))
+            loss = loss_fn(pred.float(), target)
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
-            total += float(loss.detach()) * len(yb)
+            total += float(loss.detach()) * len(yb)  # also waits for the device
             count += len(yb)
+            t_data = time.perf_counter()
         lr = float(opt.param_groups[0]["lr"])
         sched.step()
         val_mae = _validate(model, va_frames, va_y, info)
         dt = time.perf_counter() - t0
         seconds += dt
         history.append({"epoch": epoch + 1, "train_loss": total / max(count, 1),
-                        "val_mae_m": val_mae, "lr": lr, "seconds": dt})
+                        "val_mae_m": val_mae, "lr": lr, "seconds": dt,
+                        "input_seconds": data_s, "images": count})
         if val_mae < best["val_mae_m"]:
             best = {"epoch": epoch + 1, "val_mae_m": val_mae}
             _atomic_torch_save({"model": model.state_dict(), "epoch": epoch + 1,

@@ -244,7 +244,14 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
 
 @cli.command()
 @click.argument("input_path", metavar="INPUT", type=click.Path(path_type=Path))
-@click.option("--fps", type=float, required=True, help="Frame rate of INPUT, frames/s.")
+@click.option("--fps", type=float, default=None,
+              help="Frame rate of a frame folder, frames/s.  A video's own timestamps give its "
+                   "frame times; --fps that contradicts them is an error unless --force-fps.")
+@click.option("--force-fps", is_flag=True,
+              help="Use --fps for a video, evenly spaced, instead of its timestamps.")
+@click.option("--frame-times", type=click.Path(path_type=Path), default=None, metavar="CSV",
+              help="A frame folder's frame times: a CSV with a time_s column (seconds), one "
+                   "row per frame in natural name order.")
 @click.option("--focal-px", type=float, default=None, help="Focal length in pixels.")
 @click.option("--fov-deg", type=float, default=None, help="Horizontal field of view, degrees.")
 @click.option("--window", type=int, default=None,
@@ -272,9 +279,12 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
                    "trusted_windows.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
-def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: float | None,
+@click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
+def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: Path | None,
+             focal_px: float | None, fov_deg: float | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
-             velocity_sigma_mps: float | None, as_json: bool, out: Path | None) -> None:
+             velocity_sigma_mps: float | None, as_json: bool, out: Path | None,
+             force: bool) -> None:
     """Altitude from a folder of frames or a video file, by the wave dispersion relation.
 
     An estimate the altimeter cannot vouch for is still printed, marked NOT TRUSTED with
@@ -284,7 +294,8 @@ def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: floa
 
     from wavealt.altimetry.series import altitude_series
     from wavealt.camera import focal_px_from_fov
-    from wavealt.video import read_input
+    from wavealt.altimetry.series import check_out_folder
+    from wavealt.video import read_clip
 
     if (focal_px is None) == (fov_deg is None):
         msg = "give exactly one of --focal-px and --fov-deg"
@@ -301,10 +312,13 @@ def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: floa
         from wavealt.evaluation import dispersion_of_input
 
         dispersion = dispersion_of_input(input_path)
-    frames = read_input(input_path)
+    if out is not None:
+        check_out_folder(out, force=force)  # before the work, not after it
+    clip = read_clip(input_path, fps=fps, frame_times=frame_times, force_fps=force_fps)
+    frames = clip.frames
     if focal_px is None:
         focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
-    summary, rows = altitude_series(frames, fps=fps, focal_px=focal_px, window=window,
+    summary, rows = altitude_series(frames, times_s=clip.times_s, focal_px=focal_px, window=window,
                                     step=step, dispersion=dispersion, out=out,
                                     velocity_mps=velocity,
                                     velocity_sigma_mps=velocity_sigma_mps or 0.0)
@@ -321,6 +335,9 @@ def altitude(input_path: Path, fps: float, focal_px: float | None, fov_deg: floa
                "(image +x columns, +y rows)")
     click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
                f"{summary['windows']} window(s), {summary['trusted_windows']} trusted")
+    timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}
+    click.echo(f"frame times from {timing[clip.timing]} ({clip.source_fps:.3g} fps), "
+               f"{summary['dropped_frames']} dropped frame(s)")
     if out is not None:
         click.echo(f"written: {out}")
 

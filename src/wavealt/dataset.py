@@ -76,13 +76,16 @@ def read_png(path: Path) -> np.ndarray:
 
 
 def frame_files(folder: Path) -> list[Path]:
-    """Image files of a frame folder, sorted by name."""
+    """Image files of a frame folder in natural order (``frame_2`` before ``frame_10``)."""
+    from natsort import natsorted
+
     exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
-    return sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in exts and p.is_file())
+    return natsorted((p for p in Path(folder).iterdir()
+                      if p.suffix.lower() in exts and p.is_file()), key=lambda p: p.name)
 
 
 def read_frames_folder(folder: Path | str) -> np.ndarray:
-    """Read every image of ``folder`` (sorted by name) as ``(T, H, W, 3)`` float32."""
+    """Read every image of ``folder`` (natural order) as ``(T, H, W, 3)`` float32."""
     folder = Path(folder)
     if not folder.is_dir():
         msg = f"frame folder not found: {folder}"

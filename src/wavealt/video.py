@@ -1,13 +1,39 @@
-"""Frame input for real footage: a folder of images or a video file, and sliding windows."""
+"""Frame input for real footage: a folder of images or a video file with the times of its
+frames, and sliding windows.
+
+The times of a video's frames are its presentation timestamps (PTS); a frame folder is read
+in natural order (``frame_2`` before ``frame_10``) at ``--fps`` or at the times of a CSV.
+"""
 
 from __future__ import annotations
 
+import csv
+import math
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 VIDEO_SUFFIXES = {".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mpg", ".mpeg", ".ts"}
+#: ``--fps`` may differ from a video's own rate by this fraction before it is a contradiction.
+FPS_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True)
+class Clip:
+    """Frames and when they were taken.
+
+    ``frames``: ``(T, H, W, 3)`` float32 in [0, 1]; ``times_s``: ``(T,)`` seconds from the
+    first frame, strictly increasing; ``source_fps``: the rate the source records (a
+    video's timestamps, ``--fps`` or the CSV's median spacing); ``timing``: where the times
+    came from (``"timestamps"``, ``"fps"``, ``"csv"``).
+    """
+
+    frames: np.ndarray
+    times_s: np.ndarray
+    source_fps: float
+    timing: str
 
 
 def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray:
@@ -15,13 +41,28 @@ def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray
 
     Frames are decoded one at a time (streaming); ``max_frames`` stops early.
     """
+    return _decode(path, max_frames=max_frames)[0]
+
+
+def read_video_timed(path: Path | str, *,
+                     max_frames: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A video's frames and their presentation times in seconds from the first frame."""
+    frames, times = _decode(path, max_frames=max_frames)
+    if times is None:
+        msg = f"video {path} has frames without timestamps; give --fps and --force-fps"
+        raise ValueError(msg)
+    return frames, times
+
+
+def _decode(path: Path | str, *,
+            max_frames: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     import av
 
     path = Path(path)
     if not path.is_file():
         msg = f"video file not found: {path}"
         raise FileNotFoundError(msg)
-    frames = []
+    frames, times = [], []
     try:
         with av.open(str(path)) as container:
             if not container.streams.video:
@@ -29,6 +70,7 @@ def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray
                 raise ValueError(msg)
             for frame in container.decode(video=0):
                 frames.append(frame.to_ndarray(format="rgb24"))
+                times.append(frame.time)
                 if max_frames is not None and len(frames) >= max_frames:
                     break
     except av.error.FFmpegError as exc:
@@ -37,32 +79,163 @@ def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray
     if not frames:
         msg = f"video {path} holds no frames"
         raise ValueError(msg)
-    return np.stack(frames).astype(np.float32) / 255.0
+    arr = np.stack(frames).astype(np.float32) / 255.0
+    if any(t is None for t in times):
+        return arr, None
+    t = np.asarray(times, np.float64)
+    order = np.argsort(t, kind="stable")  # decoders return presentation order; be sure
+    if np.any(np.diff(t[order]) <= 0):
+        msg = f"video {path} repeats a frame timestamp; give --fps and --force-fps"
+        raise ValueError(msg)
+    return arr[order], t[order] - t[order][0]
+
+
+#: A frame interval that differs from the running one by more than this fraction breaks the
+#: input: windows never span a dropped frame or a change of rate.
+GAP_TOLERANCE = 0.25
+
+
+def regular_runs(times_s: np.ndarray) -> tuple[list[tuple[int, int]], int]:
+    """Split frame times into runs of evenly spaced frames.
+
+    Returns the ``(start, stop)`` frame ranges of the runs and the number of frames missing
+    between them (a gap of ``n`` intervals counts ``n - 1`` dropped frames). The running
+    interval follows a slowly varying rate (variable frame rate) and restarts after a break.
+    """
+    t = np.asarray(times_s, np.float64)
+    if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        msg = "times_s must be finite and strictly increasing"
+        raise ValueError(msg)
+    runs, dropped, start, ref = [], 0, 0, None
+    for i, d in enumerate(np.diff(t)):
+        if ref is not None and abs(d / ref - 1.0) > GAP_TOLERANCE:
+            runs.append((start, i + 1))
+            dropped += max(0, round(d / ref) - 1)
+            start, ref = i + 1, None
+            continue
+        ref = d if ref is None else 0.9 * ref + 0.1 * d
+    runs.append((start, t.size))
+    return runs, dropped
+
+
+def nominal_rate(times_s: np.ndarray) -> float:
+    """Frames per second of ``times_s``: over the span of its longest run of evenly spaced
+    frames (dropped frames and timestamp rounding do not bias it); NaN for one frame."""
+    runs, _ = regular_runs(times_s)
+    a, b = max(runs, key=lambda r: r[1] - r[0])
+    return float((b - a - 1) / (times_s[b - 1] - times_s[a])) if b - a > 1 else math.nan
+
+
+def read_frame_times(path: Path | str, n_frames: int) -> np.ndarray:
+    """Frame times from a CSV: a header with a ``time_s`` column, one row per frame in the
+    folder's (natural) order; seconds, strictly increasing. Returned from the first frame."""
+    path = Path(path)
+    if not path.is_file():
+        msg = f"frame-times file not found: {path}"
+        raise FileNotFoundError(msg)
+    with path.open(newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        if reader.fieldnames is None or "time_s" not in reader.fieldnames:
+            msg = f"frame-times file {path} needs a header with a time_s column"
+            raise ValueError(msg)
+        try:
+            t = np.array([float(row["time_s"]) for row in reader], np.float64)
+        except (TypeError, ValueError):
+            msg = f"frame-times file {path}: every time_s must be a number"
+            raise ValueError(msg) from None
+    if t.size != n_frames:
+        msg = f"frame-times file {path} has {t.size} rows for {n_frames} frames"
+        raise ValueError(msg)
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        msg = f"frame-times file {path}: time_s must be finite and strictly increasing"
+        raise ValueError(msg)
+    return t - t[0]
+
+
+def read_clip(path: Path | str, *, fps: float | None = None, frame_times: Path | str | None = None,
+              force_fps: bool = False) -> Clip:
+    """Frames of ``path`` (a folder of images or a video file) with their times.
+
+    A video's times are its timestamps. ``fps`` that contradicts them (by more than
+    :data:`FPS_TOLERANCE`) is an error, unless ``force_fps``, which replaces them with
+    evenly spaced times at ``fps``. A folder needs ``fps`` or ``frame_times`` (a CSV, see
+    :func:`read_frame_times`).
+    """
+    from wavealt.dataset import read_frames_folder
+
+    path = Path(path)
+    if fps is not None and not (math.isfinite(fps) and fps > 0):
+        msg = f"--fps must be a positive number; got {fps!r}"
+        raise ValueError(msg)
+    if force_fps and fps is None:
+        msg = "--force-fps needs --fps (the rate to use)"
+        raise ValueError(msg)
+    if fps is not None and frame_times is not None:
+        msg = "give one of --fps and --frame-times, not both"
+        raise ValueError(msg)
+    if path.is_dir():
+        frames = read_frames_folder(path)
+        if frame_times is not None:
+            t = read_frame_times(frame_times, frames.shape[0])
+            return Clip(frames, t, nominal_rate(t), "csv")
+        if fps is None:
+            msg = f"frame folder {path} has no timestamps: give --fps or --frame-times CSV"
+            raise ValueError(msg)
+        return Clip(frames, np.arange(frames.shape[0]) / fps, float(fps), "fps")
+    if not path.exists():
+        msg = f"INPUT not found: {path}"
+        raise FileNotFoundError(msg)
+    if frame_times is not None:
+        msg = "--frame-times is for frame folders; a video's frames carry their own timestamps"
+        raise ValueError(msg)
+    if force_fps:
+        frames = read_video(path)
+        return Clip(frames, np.arange(frames.shape[0]) / fps, float(fps), "fps")
+    frames, t = read_video_timed(path)
+    own = nominal_rate(t)
+    if fps is not None and math.isfinite(own) and abs(fps / own - 1.0) > FPS_TOLERANCE:
+        msg = (f"--fps {fps:g} contradicts the video's own frame rate, {own:.3g} fps from its "
+               "timestamps; drop --fps, or add --force-fps to override the timestamps")
+        raise ValueError(msg)
+    return Clip(frames, t, own, "timestamps")
 
 
 def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
-                codec: str = "mpeg4") -> None:
-    """Encode ``(T, H, W, 3)`` frames (float in [0, 1] or uint8) with PyAV (tests, demos)."""
+                codec: str = "mpeg4", times_s: np.ndarray | None = None) -> None:
+    """Encode ``(T, H, W, 3)`` or grey ``(T, H, W)`` frames (float in [0, 1] or uint8) with
+    PyAV (tests, demos).
+
+    ``times_s`` stamps each frame with its own time (a 1/60000 s clock, within MPEG-4's
+    limit) instead of ``1 / fps`` steps: variable frame rate and dropped frames.
+    """
     import av
     from fractions import Fraction
 
     from wavealt.dataset import to_uint8
 
     arr = frames if frames.dtype == np.uint8 else to_uint8(frames)
+    if arr.ndim == 3:  # grey frames: written as RGB
+        arr = np.repeat(arr[..., None], 3, axis=-1)
     with av.open(str(path), mode="w") as container:
         stream = container.add_stream(codec, rate=Fraction(fps).limit_denominator(1000))
         stream.width, stream.height = arr.shape[2], arr.shape[1]
         stream.pix_fmt = "yuv420p"
         stream.options = {"qscale": "2"} if codec == "mpeg4" else {"crf": "12"}
-        for img in arr:
-            for packet in stream.encode(av.VideoFrame.from_ndarray(img, format="rgb24")):
+        if times_s is not None:
+            stream.codec_context.time_base = Fraction(1, 60000)
+        for i, img in enumerate(arr):
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24")
+            if times_s is not None:
+                frame.pts = round(float(times_s[i]) * 60000)
+                frame.time_base = Fraction(1, 60000)
+            for packet in stream.encode(frame):
                 container.mux(packet)
         for packet in stream.encode():
             container.mux(packet)
 
 
 def read_input(path: Path | str) -> np.ndarray:
-    """Frames of ``path``: a folder of images (sorted by name) or a video file."""
+    """Frames of ``path``: a folder of images (natural order) or a video file."""
     from wavealt.dataset import read_frames_folder
 
     path = Path(path)
@@ -91,4 +264,6 @@ def sliding_windows(n_frames: int, *, window: int, step: int | None = None) -> I
         yield start, start + window
 
 
-__all__ = ["read_input", "read_video", "sliding_windows", "write_video"]
+__all__ = ["FPS_TOLERANCE", "GAP_TOLERANCE", "Clip", "nominal_rate", "read_clip",
+           "read_frame_times", "read_input", "read_video", "read_video_timed", "regular_runs",
+           "sliding_windows", "write_video"]

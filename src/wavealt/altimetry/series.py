@@ -17,21 +17,22 @@ from tqdm import tqdm
 from wavealt._checks import check_finite_number, check_frames
 from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
 from wavealt.dataset import atomic_write_text
-from wavealt.video import sliding_windows
+from wavealt.video import regular_runs, sliding_windows
 
 #: Why a summary with no trusted window is not trusted.
 NO_TRUSTED_WINDOW = "no window trusted"
 
 #: Columns of ``altitude.csv``, one row per window.
-CSV_COLUMNS = ("start_frame", "stop_frame", "time_s", "altitude_m", "altitude_std_m",
+CSV_COLUMNS = ("start_frame", "stop_frame", "time_s", "fps", "altitude_m", "altitude_std_m",
                "camera_vx_mps", "camera_vy_mps", "quality", "trusted", "mode", "reason",
                "frames", "n_modes")
 
 
-def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: int | None = None,
-                    step: int | None = None, out: Path | str | None = None,
-                    progress: bool = False, velocity_mps: tuple[float, float] | None = None,
-                    velocity_sigma_mps: float = 0.0,
+def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: float,
+                    window: int | None = None, step: int | None = None,
+                    out: Path | str | None = None, progress: bool = False,
+                    velocity_mps: tuple[float, float] | None = None,
+                    velocity_sigma_mps: float = 0.0, times_s: np.ndarray | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
 
@@ -44,9 +45,13 @@ def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: 
     Parameters
     ----------
     frames : (T, H, W, 3) or (T, H, W) array
-        Frame sequence, float in [0, 1] or uint8, evenly spaced in time.
-    fps : float
-        Frame rate, frames per second.
+        Frame sequence, float in [0, 1] or uint8.
+    fps : float, optional
+        Frame rate, frames per second, of evenly spaced frames; or give ``times_s``.
+    times_s : (T,) array, optional
+        Each frame's time (seconds, strictly increasing; a video's timestamps). Windows
+        never span a dropped frame or a change of rate (:func:`regular_runs`); each window's
+        rate comes from its own times.
     focal_px : float
         Focal length in pixels.
     window : int, optional
@@ -73,21 +78,42 @@ def altitude_series(frames: np.ndarray, *, fps: float, focal_px: float, window: 
         :func:`summarize` of the windows.
     rows : list of dict
         One per window: ``start_frame``, ``stop_frame``, ``time_s`` (the window's centre,
-        seconds) and the fields of its :class:`DispersionResult` (``to_dict``).
+        seconds), ``fps`` (its rate) and the fields of its :class:`DispersionResult`
+        (``to_dict``).
     """
     arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
-    if window is None:
+    if times_s is None:
+        if fps is None:
+            msg = "give fps or times_s (the frames' times)"
+            raise ValueError(msg)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
-        window = max(10, round(fps))
+        t = np.arange(arr.shape[0]) / fps
+    else:
+        t = np.asarray(times_s, np.float64)
+        if t.shape != (arr.shape[0],):
+            msg = f"times_s must hold one time per frame ({arr.shape[0]}); got shape {t.shape}"
+            raise ValueError(msg)
+    runs, dropped = regular_runs(t)
+    if window is None:
+        window = max(10, round(1.0 / float(np.median(np.diff(t)))))
+    ranges = [(a + s0, a + s1) for a, b in runs if b - a >= MIN_FRAMES
+              for s0, s1 in sliding_windows(b - a, window=window, step=step)]
+    if not ranges:
+        msg = (f"no run of at least {MIN_FRAMES} evenly spaced frames in the input "
+               f"({len(runs)} runs between dropped frames or changes of rate)")
+        raise ValueError(msg)
     est = DispersionAltimeter(**kw)
     rows: list[dict[str, Any]] = []
-    ranges = list(sliding_windows(arr.shape[0], window=window, step=step))
     for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
-        res = est.estimate(arr[start:stop], fps=fps, focal_px=focal_px,
+        w_fps = (stop - start - 1) / (t[stop - 1] - t[start])
+        res = est.estimate(arr[start:stop], fps=w_fps, focal_px=focal_px,
                            velocity_mps=velocity_mps, velocity_sigma_mps=velocity_sigma_mps)
         rows.append({"start_frame": start, "stop_frame": stop,
-                     "time_s": 0.5 * (start + stop - 1) / fps, **res.to_dict()})
+                     "time_s": float(0.5 * (t[start] + t[stop - 1])), "fps": float(w_fps),
+                     **res.to_dict()})
     summary = summarize(rows, frames=int(arr.shape[0]))
+    summary["dropped_frames"] = int(dropped)
+    summary["unused_frames"] = int(arr.shape[0] - len({i for a, b in ranges for i in range(a, b)}))
     if out is not None:
         _write_series(Path(out), summary, rows)
     return summary, rows
@@ -131,7 +157,7 @@ def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
     n_trusted = sum(bool(r["trusted"]) for r in rows)
     if len(rows) == 1:
         summary = dict(rows[0])
-        for key in ("start_frame", "stop_frame", "time_s"):
+        for key in ("start_frame", "stop_frame", "time_s", "fps"):
             summary.pop(key, None)
         summary["frames"] = int(frames)
     else:
@@ -173,8 +199,30 @@ def _csv_text(rows: list[dict[str, Any]]) -> str:
     return buf.getvalue()
 
 
+#: The files :func:`altitude_series` writes into its ``out`` folder.
+OUT_FILES = ("altitude.csv", "altitude.json", "altitude.png")
+
+
+def check_out_folder(out: Path | str, *, force: bool = False) -> Path:
+    """``out`` as a folder the series may write into: an error if it is a file, or if it
+    already holds the series' files and ``force`` is not given (nothing is replaced
+    silently)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out} is a file; give a folder"
+        raise ValueError(msg)
+    held = [n for n in OUT_FILES if (out / n).exists()]
+    if held and not force:
+        msg = f"--out {out} already holds {', '.join(held)}; use another folder or --force"
+        raise ValueError(msg)
+    return out
+
+
 def _write_series(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
     """Write ``altitude.csv``, ``altitude.json`` and ``altitude.png`` into ``out``."""
+    if out.exists() and not out.is_dir():
+        msg = f"out {out} is a file; give a folder"
+        raise ValueError(msg)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "altitude.csv", _csv_text(rows))
     atomic_write_text(out / "altitude.json",
@@ -203,4 +251,5 @@ def _write_series(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]]
     plt.close(fig)
 
 
-__all__ = ["CSV_COLUMNS", "NO_TRUSTED_WINDOW", "altitude_series", "summarize"]
+__all__ = ["CSV_COLUMNS", "NO_TRUSTED_WINDOW", "OUT_FILES", "altitude_series",
+           "check_out_folder", "summarize"]

@@ -280,11 +280,17 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 @click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
+@click.option("--mavlink", default=None, metavar="ENDPOINT",
+              help="Send each window's altitude to a flight controller as a downward "
+                   "DISTANCE_SENSOR (pymavlink: udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT "
+                   "or a serial device); untrusted windows go out as invalid and out of range.")
+@click.option("--mavlink-range", default="0.5,20", show_default=True, metavar="MIN,MAX",
+              help="The range (m) sent as the sensor's min/max distance.")
 def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: Path | None,
              focal_px: float | None, fov_deg: float | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
              velocity_sigma_mps: float | None, as_json: bool, out: Path | None,
-             force: bool) -> None:
+             force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """Altitude from a folder of frames or a video file, by the wave dispersion relation.
 
     An estimate the altimeter cannot vouch for is still printed, marked NOT TRUSTED with
@@ -318,10 +324,23 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     frames = clip.frames
     if focal_px is None:
         focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
-    summary, rows = altitude_series(frames, times_s=clip.times_s, focal_px=focal_px, window=window,
-                                    step=step, dispersion=dispersion, out=out,
-                                    velocity_mps=velocity,
-                                    velocity_sigma_mps=velocity_sigma_mps or 0.0)
+    link = None
+    if mavlink is not None:
+        from wavealt.mavlink import MavlinkLink
+
+        lo, hi = _range(mavlink_range, "mavlink-range")
+        fov_h = 2 * math.atan(frames.shape[2] / (2 * focal_px))
+        fov_v = 2 * math.atan(frames.shape[1] / (2 * focal_px))
+        link = MavlinkLink(mavlink, min_m=lo, max_m=hi, fov_rad=(fov_h, fov_v))
+    try:
+        summary, rows = altitude_series(
+            frames, times_s=clip.times_s, focal_px=focal_px, window=window, step=step,
+            dispersion=dispersion, out=out, velocity_mps=velocity,
+            velocity_sigma_mps=velocity_sigma_mps or 0.0,
+            on_window=link.send_altitude if link is not None else None)
+    finally:
+        if link is not None:
+            link.close()
     if as_json:
         click.echo(json.dumps({**summary, "velocity_mps": summary["camera_velocity_mps"]}))
         return

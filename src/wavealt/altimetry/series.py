@@ -8,6 +8,7 @@ import io
 import json
 import math
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
                     out: Path | str | None = None, progress: bool = False,
                     velocity_mps: tuple[float, float] | None = None,
                     velocity_sigma_mps: float = 0.0, times_s: np.ndarray | None = None,
+                    on_window: Callable[[dict[str, Any]], Any] | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
 
@@ -69,6 +71,9 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     velocity_sigma_mps : float
         How far (m/s, one sigma) the camera's velocity over the water may lie from
         ``velocity_mps``; 0 for exact.
+    on_window : callable, optional
+        Called with each window's row as soon as it is estimated (e.g. to send it to a
+        flight controller).
     **kw
         Options of :class:`DispersionAltimeter` (``dispersion``, ``deglint``, ...).
 
@@ -111,6 +116,8 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
         rows.append({"start_frame": start, "stop_frame": stop,
                      "time_s": float(0.5 * (t[start] + t[stop - 1])), "fps": float(w_fps),
                      **res.to_dict()})
+        if on_window is not None:
+            on_window(rows[-1])
     summary = summarize(rows, frames=int(arr.shape[0]))
     summary["dropped_frames"] = int(dropped)
     summary["unused_frames"] = int(arr.shape[0] - len({i for a, b in ranges for i in range(a, b)}))

@@ -459,3 +459,20 @@ def test_auto_signal_checks_a_middling_chroma_fit_against_the_luminance() -> Non
     assert auto == DispersionAltimeter(signal="luma").estimate(frames, **kw)
     assert abs(auto.altitude_m / sc.altitude_m - 1.0) < 0.03
     assert auto.quality > chroma.quality
+
+
+def test_peak_prominences_equal_scipys() -> None:
+    """The peak finder written out for start-up time gives SciPy's peaks and prominences,
+    plateaus and ties included."""
+    from scipy.signal import find_peaks
+
+    from wavealt.altimetry.dispersion import peak_prominences
+
+    rng = np.random.default_rng(0)
+    for trial in range(2000):
+        n = int(rng.integers(1, 60))
+        y = rng.integers(0, 6, n).astype(float) if trial % 2 else rng.normal(size=n)
+        ref, props = find_peaks(y, prominence=0.0)
+        peaks, prom = peak_prominences(y)
+        np.testing.assert_array_equal(peaks, ref)
+        np.testing.assert_allclose(prom, props["prominences"])

@@ -330,14 +330,20 @@ def test_deglint_dataset_writes_registers_and_measures(dataset):
     assert psnrs == sorted(psnrs, reverse=True) and len(psnrs) == len(metrics)
 
 
-def test_deglint_dataset_resumes_and_redoes_on_new_settings(dataset):
+def test_deglint_dataset_resumes_and_refuses_other_settings_unless_forced(dataset):
     deglint_dataset(dataset, method="median", window=4, progress=False)
     seq = dataset / "median" / "seq_00000" / "frame_000.png"
     stamp = seq.stat().st_mtime_ns
     deglint_dataset(dataset, method="median", window=4, progress=False)
     assert seq.stat().st_mtime_ns == stamp  # kept
-    deglint_dataset(dataset, method="median", window=2, progress=False)
-    assert seq.stat().st_mtime_ns != stamp  # other window: rewritten
+    with pytest.raises(ValueError, match=r"condition median was made with method median, "
+                                         r"window 4; --force rewrites it"):
+        deglint_dataset(dataset, method="median", window=2, progress=False)
+    assert seq.stat().st_mtime_ns == stamp  # refused: nothing replaced
+    with pytest.raises(ValueError, match=r"window 50 is longer than the sequences \(\d+ frames\)"):
+        deglint_dataset(dataset, method="median", window=50, progress=False, force=True)
+    deglint_dataset(dataset, method="median", window=2, progress=False, force=True)
+    assert seq.stat().st_mtime_ns != stamp  # other window, forced: rewritten
     ds = Dataset(dataset)
     assert ds.info["conditions"]["median"]["window"] == 2
     rec = ds.records[1].sequence_id

@@ -131,7 +131,9 @@ def figures(dataset: Path, out: Path | None, seq_id: str | None) -> None:
               help="Temporal window w of paper eq. (5), in frames (frame t sees t-w//2..t+w//2).")
 @click.option("--figures/--no-figures", default=True, show_default=True,
               help="Write paper Fig. 4 and Fig. 7 into DATASET/figures.")
-def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
+@click.option("--force", is_flag=True,
+              help="Rewrite a condition made earlier with another window.")
+def deglint(dataset: Path, method: str, window: int, figures: bool, force: bool) -> None:
     """Deglint the glinty frames of DATASET and rank the methods against clean/."""
     from wavealt.deglint import condition_name, deglint_dataset, method_names
 
@@ -139,7 +141,7 @@ def deglint(dataset: Path, method: str, window: int, figures: bool) -> None:
     for m in methods:
         condition_name(m)  # unknown names fail before anything is written
     for m in methods:
-        cond = deglint_dataset(dataset, method=m, window=window)
+        cond = deglint_dataset(dataset, method=m, window=window, force=force)
         click.echo(f"condition: {dataset / cond}")
     table = dataset / "deglint_table.md"
     if table.is_file():
@@ -186,6 +188,9 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
                       lr=lr, seed=seed, crop_px=crop_px, frames_per_sequence=frames_per_sequence,
                       temporal=temporal, num_workers=workers, threads=threads,
                       pretrained=str(pretrained) if pretrained else None)
+    if resume and not (run / "last.pt").is_file():
+        msg = f"--resume: {run} holds no training run to continue (drop --resume to start one)"
+        raise ValueError(msg)
     res = train_run(dataset, run, cfg, resume=resume, device=device)
     click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "
                f"{res['best_val_mae_m']:.3f} m)")
@@ -206,13 +211,15 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
               help="Folder for metrics.json, table.md, predictions.csv and Fig. 5/6.")
 @click.option("--device", default="auto", show_default=True,
               help="auto (CUDA, then MPS, then CPU), cpu, cuda, cuda:N or mps.")
+@click.option("--force", is_flag=True, help="Replace the results already in --out.")
 def evaluate(dataset: Path, estimator: str, conditions: str | None, split: str, out: Path,
-             device: str) -> None:
+             device: str, force: bool) -> None:
     """Evaluate an altimeter on DATASET per condition (paper Table 2, Fig. 5, Fig. 6)."""
     from wavealt.evaluation import evaluate as run_eval
 
     conds = [c.strip() for c in conditions.split(",") if c.strip()] if conditions else None
-    res = run_eval(dataset, estimator, conditions=conds, out=out, split=split, device=device)
+    res = run_eval(dataset, estimator, conditions=conds, out=out, split=split, device=device,
+                   force=force)
     click.echo((out / "table.md").read_text(encoding="utf-8").rstrip())
     click.echo(f"metrics: {out / 'metrics.json'} ({len(res.metrics)} conditions)")
 

@@ -127,13 +127,22 @@ def write_frames_folder(folder: Path | str, frames: np.ndarray) -> None:
         raise
 
 
+def publish(tmp: Path | str, path: Path | str) -> None:
+    """Move a finished temporary file onto ``path`` with the permissions a plain ``open``
+    would give it (``0o666`` less the umask; ``mkstemp`` makes files ``0o600``)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
+    os.replace(tmp, path)
+
+
 def atomic_write_text(path: Path, text: str) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -146,7 +155,7 @@ def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
     os.close(fd)
     try:
         np.savez_compressed(tmp, **arrays)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -713,19 +713,22 @@ def quality_table(metrics: dict[str, dict[str, Any]]) -> str:
 
 
 def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
-                    window: int = DEFAULT_WINDOW, progress: bool = True) -> str:
+                    window: int = DEFAULT_WINDOW, progress: bool = True,
+                    force: bool = False) -> str:
     """Deglint every glinty sequence of a dataset folder and measure against ``clean/``.
 
     Writes ``DATASET/<condition>/<sequence_id>/frame_###.png`` (same layout as ``clean/``;
     ``residual`` for ``tmf``), atomically per sequence, and records the condition with its
     ``method`` and ``window`` in ``dataset.json``.  Resumes: sequences already written with the
-    same method and window are kept; a condition made with other settings is rewritten.
+    same method and window are kept; a condition made with other settings is refused unless
+    ``force``, which rewrites it.
     When ``clean/`` exists, PSNR / SSIM / MAE of the (8-bit) output and of the untouched
     glinty frames against it are merged into ``DATASET/deglint_metrics.json`` (keyed by
     condition) and ranked in ``DATASET/deglint_table.md``.
 
-    Input is checked before anything is written: ``window`` >= 1, a ``glinty/`` folder with
-    every sequence, at least 2 frames per sequence, one frame size per sequence.
+    Input is checked before anything is written: ``window`` >= 1 and no longer than the
+    shortest sequence, a ``glinty/`` folder with every sequence, at least 2 frames per
+    sequence, one frame size per sequence.
 
     Returns
     -------
@@ -743,8 +746,17 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
     _check_glinty_folders(ds)
     cond = condition_name(method)
     settings = {"method": method, "window": window}
+    shortest = min(r.scenario.frames for r in ds.records)
+    if window > shortest:
+        msg = f"window {window} is longer than the sequences ({shortest} frames); use --window <= {shortest}"
+        raise ValueError(msg)
     old = ds.info.get("conditions", {}).get(cond, {})
     reuse = all(old.get(k) == v for k, v in settings.items())
+    if old and not reuse and not force:
+        was = ", ".join(f"{k} {old.get(k)}" for k in settings)
+        msg = (f"condition {cond} was made with {was}; --force rewrites it with "
+               f"{', '.join(f'{k} {v}' for k, v in settings.items())}")
+        raise ValueError(msg)
     ds.register_condition(cond, METHOD_DESCRIPTIONS[method], complete=False, **settings)
     have_clean = "clean" in ds.conditions
     q_method, q_glinty = _QualityAccumulator(), _QualityAccumulator()

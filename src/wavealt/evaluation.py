@@ -340,7 +340,7 @@ def _baseline_for(est: Estimator, dataset: Any) -> ConstantEstimator:
 def evaluate(dataset: Path | str, estimator: str | Estimator, *,
              conditions: Sequence[str] | None = None, out: Path | str | None = None,
              split: str = "test", progress: bool = True, figures: bool = True,
-             device: str = "auto") -> EvaluationResult:
+             device: str = "auto", force: bool = False) -> EvaluationResult:
     """Evaluate ``estimator`` on the ``split`` sequences of each condition.
 
     Parameters
@@ -357,9 +357,15 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         ``test`` (default), ``val`` or ``train``.
     device : str
         Where a CNN estimator runs (``auto``, ``cpu``, ``cuda[:N]``, ``mps``).
+    force : bool
+        Replace the results already in ``out``; without it an ``out`` holding
+        ``metrics.json`` is refused before any work.
     """
     from wavealt.dataset import Dataset, atomic_write_text
 
+    if out is not None and (Path(out) / "metrics.json").exists() and not force:
+        msg = f"--out {out} already holds an evaluation (metrics.json); use another folder or --force"
+        raise ValueError(msg)
     ds = Dataset(dataset)
     est = parse_estimator(estimator, ds, device=device) if isinstance(estimator, str) else estimator
     if isinstance(est, DispersionEstimator):

@@ -227,7 +227,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
             from wavealt.evaluation import evaluate
 
             res = evaluate(ds_path, spec, conditions=conditions, out=out / "eval" / name,
-                           progress=progress, device=device)
+                           progress=progress, device=device, force=True)
             return {"estimator": res.estimator, "metrics": res.metrics,
                     "baseline": res.baseline, "baseline_label": res.baseline_label}
 

@@ -370,11 +370,13 @@ def _build_model(cfg: TrainConfig, in_channels: int) -> ResNetRegressor:
 
 # -- training ---------------------------------------------------------------------------
 def _atomic_torch_save(obj: Any, path: Path) -> None:
+    from wavealt.dataset import publish
+
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(fd)
     try:
         torch.save(obj, tmp)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -467,7 +469,7 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
     out = Path(out)
     last_path = out / CHECKPOINT_LAST
     if last_path.is_file() and not resume:
-        msg = f"run folder {out} already holds a training run; pass resume=True (--resume) or use a new folder"
+        msg = f"run folder {out} already holds a training run; continue it with --resume or use a new folder"
         raise ValueError(msg)
     train_recs, val_recs = ds.split("train"), ds.split("val")
     if not train_recs or not val_recs:

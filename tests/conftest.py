@@ -25,3 +25,21 @@ def tiny_dataset(tmp_path_factory: pytest.TempPathFactory):
                         np.clip(np.broadcast_to(level + tex, (4, 48, 48, 3)), 0, 1).astype(np.float32))
     ds.register_condition("bright", "test condition: intensity encodes altitude")
     return root
+
+
+@pytest.fixture
+def run_cli(capsys):
+    """Run ``wavealt ARGV`` in-process as the console script does: ``(exit code, stdout,
+    stderr)``."""
+    from wavealt.cli import main
+
+    def run(argv: list[str]) -> tuple[int, str, str]:
+        try:
+            main(argv)
+            code = 0
+        except SystemExit as exc:
+            code = int(exc.code or 0)
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return run

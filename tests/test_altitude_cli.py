@@ -22,22 +22,14 @@ def frames() -> tuple[np.ndarray, float]:
     return data.clean, cfg.focal_px
 
 
-def _run(capsys, argv: list[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
-def test_frame_folder_json(tmp_path, capsys, frames) -> None:
+def test_frame_folder_json(tmp_path, run_cli, frames) -> None:
     """Blind, 12 frames of 64 px at 3 m: the estimate is within 4 of its own sigmas of the
     truth, or it says it is not to be trusted."""
     clip, focal_px = frames
     write_frames_folder(tmp_path / "f", clip)
-    code, out, _ = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
+    code, out, _ = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30",
                                  "--focal-px", str(focal_px), "--json", "--window", "12",
                                  "--dispersion", "gravity"])
     assert code == 0
@@ -56,13 +48,13 @@ def test_frame_folder_json(tmp_path, capsys, frames) -> None:
     (["--velocity-mps", "0,0"], "exact"),
     (["--velocity-mps", "0,0", "--velocity-sigma-mps", "0"], "exact"),
 ])
-def test_json_carries_the_contract(tmp_path, capsys, frames, velocity, mode) -> None:
+def test_json_carries_the_contract(tmp_path, run_cli, frames, velocity, mode) -> None:
     """The design contract's keys, the mode that produced the estimate, and the camera's
     velocity under both its names.  The camera hovers at 3 m over still water: the estimate
     is within 4 of its sigmas of that, or marked untrusted with a reason."""
     clip, focal_px = frames
     write_frames_folder(tmp_path / "f", clip)
-    code, out, err = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
+    code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30",
                                    "--focal-px", str(focal_px), "--dispersion", "gravity",
                                    "--json", *velocity])
     assert code == 0, err
@@ -78,10 +70,10 @@ def test_json_carries_the_contract(tmp_path, capsys, frames, velocity, mode) -> 
         assert d["camera_velocity_mps"] == [0.0, 0.0]
 
 
-def test_text_output_says_whether_to_trust_it(tmp_path, capsys, frames) -> None:
+def test_text_output_says_whether_to_trust_it(tmp_path, run_cli, frames) -> None:
     clip, focal_px = frames
     write_frames_folder(tmp_path / "f", clip)
-    code, out, _ = _run(capsys, ["altitude", str(tmp_path / "f"), "--fps", "30",
+    code, out, _ = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30",
                                  "--focal-px", str(focal_px), "--dispersion", "gravity",
                                  "--velocity-mps", "0.5,-0.25", "--velocity-sigma-mps", "0.2"])
     assert code == 0
@@ -90,7 +82,7 @@ def test_text_output_says_whether_to_trust_it(tmp_path, capsys, frames) -> None:
     assert "camera velocity over the water: (" in out and "image +x columns, +y rows" in out
     # a frozen clip (one frame repeated) holds no moving waves: printed, but marked
     write_frames_folder(tmp_path / "frozen", np.repeat(clip[:1], 12, axis=0))
-    code, out, _ = _run(capsys, ["altitude", str(tmp_path / "frozen"), "--fps", "30",
+    code, out, _ = run_cli(["altitude", str(tmp_path / "frozen"), "--fps", "30",
                                  "--focal-px", str(focal_px), "--velocity-mps", "0,0"])
     assert code == 0
     assert "altitude:" in out and "NOT TRUSTED (" in out and "0 trusted" in out
@@ -107,7 +99,7 @@ def paper_dataset(tmp_path_factory: pytest.TempPathFactory):
     return root
 
 
-def test_auto_dispersion_of_a_dataset_folder_is_its_renderers(tmp_path, capsys,
+def test_auto_dispersion_of_a_dataset_folder_is_its_renderers(tmp_path, run_cli,
                                                                paper_dataset) -> None:
     """A sequence folder of a paper-preset dataset is read with the paper renderer's
     dispersion relation (gravity); the same frames elsewhere are taken for real water."""
@@ -118,7 +110,7 @@ def test_auto_dispersion_of_a_dataset_folder_is_its_renderers(tmp_path, capsys,
         (copy / f.name).write_bytes(f.read_bytes())
 
     def run(folder, dispersion: str) -> dict:
-        code, out, err = _run(capsys, ["altitude", str(folder), "--fps", "30", "--fov-deg", "60",
+        code, out, err = run_cli(["altitude", str(folder), "--fps", "30", "--fov-deg", "60",
                                        "--velocity-mps", "0,0", "--json",
                                        "--dispersion", dispersion])
         assert code == 0, err
@@ -130,7 +122,7 @@ def test_auto_dispersion_of_a_dataset_folder_is_its_renderers(tmp_path, capsys,
     assert run(copy, "auto") == capillary
 
 
-def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
+def test_video_roundtrip_and_windows(tmp_path, run_cli, frames) -> None:
     clip, _ = frames
     path = tmp_path / "clip.mp4"
     write_video(path, clip, fps=30.0)
@@ -139,7 +131,7 @@ def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
     assert float(np.abs(back - clip).mean()) < 0.05  # lossy codec, same picture
     assert read_input(path).shape == clip.shape
     out_dir = tmp_path / "series"
-    code, out, _ = _run(capsys, ["altitude", str(path), "--fps", "30", "--fov-deg", "60",
+    code, out, _ = run_cli(["altitude", str(path), "--fps", "30", "--fov-deg", "60",
                                  "--window", "6", "--step", "3", "--out", str(out_dir)])
     assert code == 0 and "altitude:" in out
     rows = (out_dir / "altitude.csv").read_text().splitlines()
@@ -168,24 +160,24 @@ def test_video_roundtrip_and_windows(tmp_path, capsys, frames) -> None:
      "--velocity-sigma-mps"),
     (["--fps", "30", "--focal-px", "50", "--dispersion", "shallow"], "--dispersion"),
 ])
-def test_bad_arguments(tmp_path, capsys, frames, argv_tail, match) -> None:
+def test_bad_arguments(tmp_path, run_cli, frames, argv_tail, match) -> None:
     write_frames_folder(tmp_path / "f", frames[0])
-    code, out, err = _run(capsys, ["altitude", str(tmp_path / "f"), *argv_tail])
+    code, out, err = run_cli(["altitude", str(tmp_path / "f"), *argv_tail])
     assert code == 2 and match in err and "Traceback" not in err
     assert err.startswith("wavealt: error:") and err.count("\n") == 1 and out == ""
 
 
-def test_missing_and_mixed_inputs(tmp_path, capsys, frames) -> None:
-    code, _, err = _run(capsys, ["altitude", str(tmp_path / "nope.mp4"), "--fps", "30",
+def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
+    code, _, err = run_cli(["altitude", str(tmp_path / "nope.mp4"), "--fps", "30",
                                  "--focal-px", "50"])
     assert code == 2 and "not found" in err
     folder = tmp_path / "mixed"
     write_frames_folder(folder, frames[0][:3])
     from wavealt.dataset import write_png
     write_png(folder / "frame_999.png", np.zeros((32, 32, 3), np.float32))
-    code, _, err = _run(capsys, ["altitude", str(folder), "--fps", "30", "--focal-px", "50"])
+    code, _, err = run_cli(["altitude", str(folder), "--fps", "30", "--focal-px", "50"])
     assert code == 2 and "different sizes" in err
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(b"not a video")
-    code, _, err = _run(capsys, ["altitude", str(bad), "--fps", "30", "--focal-px", "50"])
+    code, _, err = run_cli(["altitude", str(bad), "--fps", "30", "--focal-px", "50"])
     assert code == 2 and "bad.mp4" in err

@@ -10,7 +10,6 @@ import torch
 
 from wavealt.altimetry.device import autocast, precision, resolve_device, to_device
 from wavealt.altimetry.train import TrainConfig, load_run, train
-from wavealt.cli import main
 
 TINY = dict(model="resnet-tiny", batch_size=8, lr=3e-3, jitter=0.0)
 no_cuda = pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
@@ -50,19 +49,15 @@ def test_cpu_keeps_float32_and_the_tensor_itself() -> None:
         assert (x @ x.transpose(-1, -2)).dtype == torch.float32
 
 
-def _cli(capsys, argv: list[str]) -> tuple[int, str]:
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
-    return int(exc.value.code), capsys.readouterr().err
 
 
 @no_cuda
-def test_cli_cuda_fails_before_writing(tiny_dataset, tmp_path, capsys) -> None:
+def test_cli_cuda_fails_before_writing(tiny_dataset, tmp_path, run_cli) -> None:
     run = tmp_path / "run"
     for args in (["train", str(tiny_dataset), "--out", str(run), "--device", "cuda",
                   "--model", "resnet-tiny", "--epochs", "1"],
                  ["reproduce", str(tmp_path / "rep"), "--device", "cuda"]):
-        code, err = _cli(capsys, args)
+        code, _, err = run_cli(args)
         assert code == 2, err
         assert "CUDA is not available" in err
         assert err.strip().count("\n") == 0
@@ -70,8 +65,8 @@ def test_cli_cuda_fails_before_writing(tiny_dataset, tmp_path, capsys) -> None:
     assert not (tmp_path / "rep").exists()
 
 
-def test_reproduce_rejects_an_unknown_training_run(tmp_path, capsys) -> None:
-    code, err = _cli(capsys, ["reproduce", str(tmp_path / "rep"), "--train", "clean,bogus"])
+def test_reproduce_rejects_an_unknown_training_run(tmp_path, run_cli) -> None:
+    code, _, err = run_cli(["reproduce", str(tmp_path / "rep"), "--train", "clean,bogus"])
     assert code == 2
     assert "train condition must be one of" in err and "'bogus'" in err
     assert not (tmp_path / "rep").exists()

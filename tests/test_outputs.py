@@ -9,7 +9,6 @@ import stat
 import numpy as np
 import pytest
 
-from wavealt.cli import main
 from wavealt.dataset import atomic_save_npz, atomic_write_text
 
 
@@ -31,31 +30,24 @@ def test_atomic_writes_respect_the_umask(tmp_path, umask, mask, mode) -> None:
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == mode
 
 
-def _cli(capsys, argv: list[str]) -> tuple[int, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    return code, capsys.readouterr().err
 
 
-def test_evaluate_refuses_to_replace_results(tiny_dataset, tmp_path, capsys) -> None:
+def test_evaluate_refuses_to_replace_results(tiny_dataset, tmp_path, run_cli) -> None:
     out = tmp_path / "eval"
     argv = ["evaluate", str(tiny_dataset), "--estimator", "constant", "--out", str(out),
             "--conditions", "clean"]
-    assert _cli(capsys, argv)[0] == 0
+    assert run_cli(argv)[0] == 0
     before = (out / "metrics.json").read_bytes()
-    code, err = _cli(capsys, [*argv[:-2], "--conditions", "glinty"])
+    code, _, err = run_cli([*argv[:-2], "--conditions", "glinty"])
     assert code == 2 and "already holds an evaluation (metrics.json)" in err and "--force" in err
     assert (out / "metrics.json").read_bytes() == before
-    assert _cli(capsys, [*argv[:-2], "--conditions", "glinty", "--force"])[0] == 0
+    assert run_cli([*argv[:-2], "--conditions", "glinty", "--force"])[0] == 0
     assert (out / "metrics.json").read_bytes() != before
 
 
-def test_train_resume_needs_a_run(tiny_dataset, tmp_path, capsys) -> None:
+def test_train_resume_needs_a_run(tiny_dataset, tmp_path, run_cli) -> None:
     run = tmp_path / "run"
-    code, err = _cli(capsys, ["train", str(tiny_dataset), "--out", str(run), "--resume",
+    code, _, err = run_cli(["train", str(tiny_dataset), "--out", str(run), "--resume",
                               "--model", "resnet-tiny", "--epochs", "1"])
     assert code == 2 and "holds no training run to continue" in err
     assert not run.exists()

@@ -9,21 +9,12 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.series import altitude_series
-from wavealt.cli import main
 from wavealt.dataset import read_frames_folder, write_png
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
 from wavealt.video import nominal_rate, read_clip, read_frame_times, regular_runs, write_video
 
 
-def _run(capsys, argv: list[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def _levels(n: int, size: int = 16) -> np.ndarray:
@@ -136,37 +127,37 @@ def test_the_rate_reaches_the_estimate(tmp_path) -> None:
     assert slow["altitude_m"] == pytest.approx(4 * right["altitude_m"], rel=0.03)
 
 
-def test_cli_reads_timestamps_and_refuses_contradictions(tmp_path, capsys) -> None:
+def test_cli_reads_timestamps_and_refuses_contradictions(tmp_path, run_cli) -> None:
     frames, focal_px, _ = _waves(20, 30.0)
     path = tmp_path / "clip.mp4"
     write_video(path, frames, fps=30.0)
     base = ["altitude", str(path), "--focal-px", str(focal_px), "--dispersion", "gravity",
             "--velocity-mps", "0,0"]
-    code, out, err = _run(capsys, [*base, "--json"])
+    code, out, err = run_cli([*base, "--json"])
     assert code == 0, err
     assert json.loads(out)["dropped_frames"] == 0
-    code, _, err = _run(capsys, [*base, "--fps", "15"])
+    code, _, err = run_cli([*base, "--fps", "15"])
     assert code == 2 and "contradicts the video's own frame rate" in err
     assert err.strip().count("\n") == 0
-    code, out, err = _run(capsys, [*base, "--fps", "15", "--force-fps"])
+    code, out, err = run_cli([*base, "--fps", "15", "--force-fps"])
     assert code == 0 and "frame times from --fps (15 fps)" in out
 
 
-def test_out_is_checked_before_the_work_and_nothing_is_replaced(tmp_path, capsys) -> None:
+def test_out_is_checked_before_the_work_and_nothing_is_replaced(tmp_path, run_cli) -> None:
     frames, focal_px, _ = _waves(12, 30.0)
     path = tmp_path / "clip.mp4"
     write_video(path, frames, fps=30.0)
     base = ["altitude", str(path), "--focal-px", str(focal_px), "--velocity-mps", "0,0"]
     afile = tmp_path / "a.txt"
     afile.write_text("keep")
-    code, _, err = _run(capsys, [*base, "--out", str(afile)])
+    code, _, err = run_cli([*base, "--out", str(afile)])
     assert code == 2 and "is a file; give a folder" in err and afile.read_text() == "keep"
     out = tmp_path / "series"
     out.mkdir()
     (out / "altitude.csv").write_text("earlier result")
-    code, _, err = _run(capsys, [*base, "--out", str(out)])
+    code, _, err = run_cli([*base, "--out", str(out)])
     assert code == 2 and "already holds altitude.csv" in err and "--force" in err
     assert (out / "altitude.csv").read_text() == "earlier result"
-    code, _, err = _run(capsys, [*base, "--out", str(out), "--force"])
+    code, _, err = run_cli([*base, "--out", str(out), "--force"])
     assert code == 0, err
     assert (out / "altitude.csv").read_text().startswith("start_frame,stop_frame,time_s,fps,")

@@ -43,6 +43,10 @@ def test_evaluate_refuses_to_replace_results(tiny_dataset, tmp_path, run_cli) ->
     assert (out / "metrics.json").read_bytes() == before
     assert run_cli([*argv[:-2], "--conditions", "glinty", "--force"])[0] == 0
     assert (out / "metrics.json").read_bytes() != before
+    afile = tmp_path / "a.txt"
+    afile.write_text("keep")
+    code, _, err = run_cli([*argv[:-4], "--out", str(afile), "--conditions", "clean"])
+    assert code == 2 and "is a file; give a folder" in err and afile.read_text() == "keep"
 
 
 def test_train_resume_needs_a_run(tiny_dataset, tmp_path, run_cli) -> None:

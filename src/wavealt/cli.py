@@ -181,14 +181,14 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
           lr: float, seed: int, crop_px: int | None, frames_per_sequence: int, temporal: bool,
           workers: int, threads: int, pretrained: Path | None, resume: bool, device: str) -> None:
     """Train the CNN altimeter on DATASET (paper Table 1)."""
-    from wavealt.altimetry.train import TrainConfig
+    from wavealt.altimetry.train import CHECKPOINT_LAST, TrainConfig
     from wavealt.altimetry.train import train as train_run
 
     cfg = TrainConfig(condition=condition, model=model, epochs=epochs, batch_size=batch_size,
                       lr=lr, seed=seed, crop_px=crop_px, frames_per_sequence=frames_per_sequence,
                       temporal=temporal, num_workers=workers, threads=threads,
                       pretrained=str(pretrained) if pretrained else None)
-    if resume and not (run / "last.pt").is_file():
+    if resume and not (run / CHECKPOINT_LAST).is_file():
         msg = f"--resume: {run} holds no training run to continue (drop --resume to start one)"
         raise ValueError(msg)
     res = train_run(dataset, run, cfg, resume=resume, device=device)
@@ -305,9 +305,9 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     """
     import json
 
-    from wavealt.altimetry.series import altitude_series
+    from wavealt.altimetry.series import OUT_FILES, altitude_series
     from wavealt.camera import focal_px_from_fov
-    from wavealt.altimetry.series import check_out_folder
+    from wavealt.dataset import check_output_folder
     from wavealt.video import read_clip
 
     if (focal_px is None) == (fov_deg is None):
@@ -326,7 +326,7 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
 
         dispersion = dispersion_of_input(input_path)
     if out is not None:
-        check_out_folder(out, force=force)  # before the work, not after it
+        check_output_folder(out, OUT_FILES, force=force)  # before the work, not after it
     clip = read_clip(input_path, fps=fps, frame_times=frame_times, force_fps=force_fps)
     frames = clip.frames
     if focal_px is None:

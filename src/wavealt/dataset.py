@@ -136,6 +136,23 @@ def publish(tmp: Path | str, path: Path | str) -> None:
     os.replace(tmp, path)
 
 
+def check_output_folder(out: Path | str, names: Iterable[str], *, force: bool = False,
+                        what: str | None = None) -> Path:
+    """The one overwrite rule of every command: ``out`` must be a folder (or not exist yet),
+    and one that already holds any of ``names`` is refused unless ``force`` — before any
+    work, so nothing written earlier is replaced silently. ``what`` names the earlier
+    result in the message (default: the files found)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out} is a file; give a folder"
+        raise ValueError(msg)
+    held = [n for n in names if (out / n).exists()]
+    if held and not force:
+        msg = f"--out {out} already holds {what or ', '.join(held)}; use another folder or --force"
+        raise ValueError(msg)
+    return out
+
+
 def atomic_write_text(path: Path, text: str) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)

@@ -361,11 +361,11 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         Replace the results already in ``out``; without it an ``out`` holding
         ``metrics.json`` is refused before any work.
     """
-    from wavealt.dataset import Dataset, atomic_write_text
+    from wavealt.dataset import Dataset, atomic_write_text, check_output_folder
 
-    if out is not None and (Path(out) / "metrics.json").exists() and not force:
-        msg = f"--out {out} already holds an evaluation (metrics.json); use another folder or --force"
-        raise ValueError(msg)
+    if out is not None:
+        check_output_folder(out, ("metrics.json",), force=force,
+                            what="an evaluation (metrics.json)")
     ds = Dataset(dataset)
     est = parse_estimator(estimator, ds, device=device) if isinstance(estimator, str) else estimator
     if isinstance(est, DispersionEstimator):

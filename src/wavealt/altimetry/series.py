@@ -17,7 +17,7 @@ from tqdm import tqdm
 
 from wavealt._checks import check_finite_number, check_frames
 from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
-from wavealt.dataset import atomic_write_text
+from wavealt.dataset import atomic_write_text, check_output_folder
 from wavealt.video import regular_runs, sliding_windows
 
 #: Why a summary with no trusted window is not trusted.
@@ -210,26 +210,9 @@ def _csv_text(rows: list[dict[str, Any]]) -> str:
 OUT_FILES = ("altitude.csv", "altitude.json", "altitude.png")
 
 
-def check_out_folder(out: Path | str, *, force: bool = False) -> Path:
-    """``out`` as a folder the series may write into: an error if it is a file, or if it
-    already holds the series' files and ``force`` is not given (nothing is replaced
-    silently)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out} is a file; give a folder"
-        raise ValueError(msg)
-    held = [n for n in OUT_FILES if (out / n).exists()]
-    if held and not force:
-        msg = f"--out {out} already holds {', '.join(held)}; use another folder or --force"
-        raise ValueError(msg)
-    return out
-
-
 def _write_series(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
     """Write ``altitude.csv``, ``altitude.json`` and ``altitude.png`` into ``out``."""
-    if out.exists() and not out.is_dir():
-        msg = f"out {out} is a file; give a folder"
-        raise ValueError(msg)
+    check_output_folder(out, OUT_FILES, force=True)  # a file is still refused
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "altitude.csv", _csv_text(rows))
     atomic_write_text(out / "altitude.json",
@@ -258,5 +241,4 @@ def _write_series(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]]
     plt.close(fig)
 
 
-__all__ = ["CSV_COLUMNS", "NO_TRUSTED_WINDOW", "OUT_FILES", "altitude_series",
-           "check_out_folder", "summarize"]
+__all__ = ["CSV_COLUMNS", "NO_TRUSTED_WINDOW", "OUT_FILES", "altitude_series", "summarize"]

@@ -9,10 +9,14 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from wavealt import __version__
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def _versions() -> str:
@@ -261,6 +265,19 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
                    "row per frame in natural name order.")
 @click.option("--focal-px", type=float, default=None, help="Focal length in pixels.")
 @click.option("--fov-deg", type=float, default=None, help="Horizontal field of view, degrees.")
+@click.option("--calibration", type=click.Path(path_type=Path), default=None, metavar="FILE",
+              help="The camera's intrinsics and lens distortion, in OpenCV's format (YAML, XML "
+                   "or JSON of cv2.FileStorage: camera_matrix, distortion_coefficients); the "
+                   "frames are undistorted.  Instead of --focal-px / --fov-deg.")
+@click.option("--roll-deg", type=float, default=None,
+              help="The camera's roll from nadir, degrees (positive: right side down, the view "
+                   "toward the image's left; top of the image toward the nose).")
+@click.option("--pitch-deg", type=float, default=None,
+              help="The camera's pitch from nadir, degrees (positive: nose up, the view toward "
+                   "the image's top).")
+@click.option("--attitude", type=click.Path(path_type=Path), default=None, metavar="CSV",
+              help="Per-frame attitude: a CSV with time_s, roll_deg, pitch_deg on the frames' "
+                   "clock, interpolated at each frame (instead of --roll-deg / --pitch-deg).")
 @click.option("--window", type=int, default=None,
               help="Frames per estimate; longer inputs are cut into sliding windows "
                    "[1 s of frames, at least 10].")
@@ -294,7 +311,8 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
 @click.option("--mavlink-range", default="0.5,20", show_default=True, metavar="MIN,MAX",
               help="The range (m) sent as the sensor's min/max distance.")
 def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: Path | None,
-             focal_px: float | None, fov_deg: float | None,
+             focal_px: float | None, fov_deg: float | None, calibration: Path | None,
+             roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
              velocity_sigma_mps: float | None, as_json: bool, out: Path | None,
              force: bool, mavlink: str | None, mavlink_range: str) -> None:
@@ -306,12 +324,14 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     import json
 
     from wavealt.altimetry.series import OUT_FILES, altitude_series
-    from wavealt.camera import focal_px_from_fov
     from wavealt.dataset import check_output_folder
     from wavealt.video import read_clip
 
-    if (focal_px is None) == (fov_deg is None):
-        msg = "give exactly one of --focal-px and --fov-deg"
+    if sum(x is not None for x in (focal_px, fov_deg, calibration)) != 1:
+        msg = "give exactly one of --focal-px, --fov-deg and --calibration"
+        raise ValueError(msg)
+    if attitude is not None and (roll_deg, pitch_deg) != (None, None):
+        msg = "give --attitude or --roll-deg/--pitch-deg, not both"
         raise ValueError(msg)
     velocity = _vector(velocity_mps, "velocity-mps", "VX,VY (m/s)")
     if velocity_sigma_mps is not None:
@@ -328,9 +348,8 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     if out is not None:
         check_output_folder(out, OUT_FILES, force=force)  # before the work, not after it
     clip = read_clip(input_path, fps=fps, frame_times=frame_times, force_fps=force_fps)
-    frames = clip.frames
-    if focal_px is None:
-        focal_px = focal_px_from_fov(frames.shape[2], fov_deg)
+    frames, focal_px, view = _level_view(clip, focal_px, fov_deg, calibration, roll_deg,
+                                         pitch_deg, attitude)
     link = None
     if mavlink is not None:
         from wavealt.mavlink import MavlinkLink
@@ -364,8 +383,41 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}
     click.echo(f"frame times from {timing[clip.timing]} ({clip.source_fps:.3g} fps), "
                f"{summary['dropped_frames']} dropped frame(s)")
+    if view is not None:
+        click.echo(view)
     if out is not None:
         click.echo(f"written: {out}")
+
+
+def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
+                calibration: Path | None, roll_deg: float | None, pitch_deg: float | None,
+                attitude: Path | None) -> tuple[np.ndarray, float, str | None]:
+    """The frames the altimeter fits, their focal length, and a line saying how they were
+    made: as read for a nadir pinhole; undistorted and levelled (``camera.NadirView``) for a
+    calibration or an attitude."""
+    from wavealt.camera import (NadirView, focal_px_from_fov, pinhole, read_attitude,
+                                read_calibration)
+
+    frames = clip.frames
+    t, h, w = frames.shape[:3]
+    if focal_px is None and fov_deg is not None:
+        focal_px = focal_px_from_fov(w, fov_deg)
+    tilted = attitude is not None or (roll_deg, pitch_deg) != (None, None)
+    if calibration is None and not tilted:
+        return frames, float(focal_px), None
+    calib = (read_calibration(calibration).for_size(w, h) if calibration is not None
+             else pinhole(w, h, focal_px))
+    if attitude is not None:
+        roll, pitch = read_attitude(attitude, clip.times_s)
+        source = f"attitude from {attitude}"
+    else:
+        roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
+        source = f"roll {roll:+.1f} deg, pitch {pitch:+.1f} deg"
+    view = NadirView(calib, w, h, roll_deg=roll, pitch_deg=pitch)
+    ow, oh = view.out_size
+    lens = f"undistorted ({calibration}), " if calibration is not None else ""
+    return view(frames), view.focal_px, (f"camera: {lens}levelled to nadir ({source}): "
+                                         f"{ow}x{oh} px at focal {view.focal_px:.1f} px")
 
 
 def main(argv: list[str] | None = None) -> None:

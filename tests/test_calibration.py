@@ -1,0 +1,216 @@
+"""Real camera geometry: OpenCV calibration files, lens distortion and attitude, turned to the
+level nadir view the altimeter assumes (``camera.NadirView``), through the real renderer."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from wavealt.altimetry.dispersion import DispersionAltimeter
+from wavealt.camera import (Calibration, NadirView, pinhole, read_attitude, read_calibration,
+                            tilt_rotation, write_calibration)
+from wavealt.scenario import preset_config
+from wavealt.simulate import generate_sequence
+
+K = np.array([[410.0, 0.0, 322.5], [0.0, 412.0, 238.0], [0.0, 0.0, 1.0]])
+D = np.array([-0.28, 0.09, 0.001, -0.0005, -0.01])
+
+
+@pytest.mark.parametrize("suffix", [".yaml", ".xml", ".json"])
+def test_calibration_round_trips_through_opencvs_own_format(tmp_path, suffix) -> None:
+    path = tmp_path / f"cam{suffix}"
+    # written by OpenCV itself, as its calibration sample does
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    fs.write("image_width", 640)
+    fs.write("image_height", 480)
+    fs.write("camera_matrix", K)
+    fs.write("distortion_coefficients", D.reshape(-1, 1))
+    fs.release()
+    cal = read_calibration(path)
+    assert np.array_equal(cal.camera_matrix, K) and np.array_equal(cal.dist_coeffs, D)
+    assert cal.image_size == (640, 480)
+    again = tmp_path / f"again{suffix}"
+    write_calibration(again, cal)
+    back = read_calibration(again)
+    assert np.array_equal(back.camera_matrix, K) and np.array_equal(back.dist_coeffs, D)
+    assert back.image_size == (640, 480)
+
+
+def test_calibration_scales_with_the_frames_and_refuses_a_crop() -> None:
+    cal = Calibration(K, D, (640, 480))
+    half = cal.for_size(320, 240)
+    assert half.camera_matrix[0, 0] == pytest.approx(205.0)
+    assert half.camera_matrix[1, 2] == pytest.approx(119.0)
+    assert np.array_equal(half.dist_coeffs, D)  # normalised coordinates: unchanged
+    with pytest.raises(ValueError, match="aspect ratio"):
+        cal.for_size(480, 480)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("not: [a, calibration", "OpenCV can read"),
+    ("%YAML:1.0\nimage_width: 640\n", "no camera matrix"),
+    ("%YAML:1.0\ncamera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
+     "   data: [1., 0., 0., 1.]\n", "3x3"),
+    ("%YAML:1.0\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+     "   data: [400., 0., 320., 0., 400., 240., 0., 0., 1.]\n"
+     "distortion_coefficients: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n"
+     "   data: [0.1, 0.2, 0.3]\n", "distortion coefficients"),
+    ("%YAML:1.0\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+     "   data: [-400., 0., 320., 0., 400., 240., 0., 0., 1.]\n", "fx, fy > 0"),
+])
+def test_bad_calibration_files_are_one_line_errors(tmp_path, text, match) -> None:
+    path = tmp_path / "cam.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        read_calibration(path)
+    with pytest.raises(FileNotFoundError, match="calibration file not found"):
+        read_calibration(tmp_path / "missing.yaml")
+
+
+def test_tilt_rotation_follows_the_vehicles_convention() -> None:
+    assert np.allclose(tilt_rotation(0.0, 0.0), np.eye(3))
+    for roll, pitch in ((10.0, 0.0), (0.0, -7.0), (12.0, 5.0)):
+        r = tilt_rotation(roll, pitch)
+        assert np.allclose(r @ r.T, np.eye(3)) and np.linalg.det(r) == pytest.approx(1.0)
+        axis = r @ [0.0, 0.0, 1.0]  # the optical axis, seen from the level camera
+        assert math.degrees(math.acos(axis[2])) == pytest.approx(
+            math.degrees(math.acos(math.cos(math.radians(roll)) * math.cos(math.radians(pitch)))))
+    # right side down: the view swings to the image's left; nose up: toward its top
+    assert (tilt_rotation(10.0, 0.0) @ [0, 0, 1])[0] < 0
+    assert (tilt_rotation(0.0, 10.0) @ [0, 0, 1])[1] < 0
+    with pytest.raises(ValueError, match="roll_deg"):
+        tilt_rotation(45.0, 0.0)
+
+
+def test_a_level_pinhole_is_left_as_it_is() -> None:
+    frames = np.random.default_rng(0).random((3, 48, 64)).astype(np.float32)
+    view = NadirView(pinhole(64, 48, 60.0), 64, 48)
+    assert view.out_size == (64, 48) and view.focal_px == pytest.approx(60.0)
+    assert np.array_equal(view(frames), frames)
+    with pytest.raises(ValueError, match="made for 64x48"):
+        view(frames[:, :40])
+
+
+def _scene(preset: str, h: float, seed: int):
+    """A wide nadir render (512 px, 90 deg) to take other cameras' views from."""
+    cfg = preset_config(preset, size=512, fov_deg=90.0, frames=10, altitude_m=(h, h),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3),
+                        **({"roll_deg": (0.0, 0.0), "pitch_deg": (0.0, 0.0)}
+                           if preset == "realistic" else {}))
+    sc = cfg.sample_scenario(seed)
+    return generate_sequence(sc, cfg).clean, sc, cfg
+
+
+def _remap(nadir: np.ndarray, f_n: float, rays: np.ndarray) -> np.ndarray:
+    """What a camera whose pixels look along ``rays`` (level frame, OpenCV axes) sees of the
+    nadir render of focal ``f_n``, from the same optical centre."""
+    n = nadir.shape[1]
+    mx = (f_n * rays[..., 0] / rays[..., 2] + n / 2 - 0.5).astype(np.float32)
+    my = (f_n * rays[..., 1] / rays[..., 2] + n / 2 - 0.5).astype(np.float32)
+    assert 0 <= mx.min() and mx.max() <= n - 1 and 0 <= my.min() and my.max() <= n - 1
+    return np.stack([cv2.remap(f, mx, my, cv2.INTER_LINEAR) for f in nadir])
+
+
+def _pixel_rays(size: int, focal: float) -> np.ndarray:
+    u = (np.arange(size) + 0.5 - size / 2) / focal
+    uu, vv = np.meshgrid(u, u)
+    return np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+
+
+@pytest.mark.parametrize("h, roll, pitch, seed", [(6.0, -8.0, 12.0, 1), (4.5, 0.0, 15.0, 3)])
+def test_a_tilted_camera_reads_right_when_its_attitude_is_known(h, roll, pitch, seed) -> None:
+    nadir, sc, cfg = _scene("paper", h, seed)
+    rays = _pixel_rays(256, cfg.focal_px) @ tilt_rotation(roll, pitch).T
+    frames = _remap(nadir, cfg.focal_px, rays)
+    est = DispersionAltimeter(dispersion="gravity")
+    kw = {"fps": cfg.fps, "velocity_mps": sc.camera_velocity_mps}
+    view = NadirView(pinhole(256, 256, cfg.focal_px), 256, 256, roll_deg=roll, pitch_deg=pitch)
+    known = est.estimate(view(frames), focal_px=view.focal_px, **kw)
+    ignored = est.estimate(frames, focal_px=cfg.focal_px, **kw)
+    assert known.trusted and abs(known.altitude_m / h - 1) < 0.03, known
+    # the tilt foreshortens the far side: ignored, it reads high
+    assert ignored.altitude_m / h - 1 > 0.08, ignored
+
+
+def test_lens_distortion_is_undone_by_the_calibration(tmp_path) -> None:
+    h = 5.0
+    nadir, sc, cfg = _scene("paper", h, 2)
+    size, f = 256, cfg.focal_px * 1.1
+    k = np.array([[f, 0.0, 131.0], [0.0, f, 125.0], [0.0, 0.0, 1.0]])
+    d = np.array([-0.35, 0.12, 0.0, 0.0, 0.0])  # strong barrel, as of a wide-angle lens
+    # each distorted pixel's ray, by OpenCV's inverse of its own distortion model
+    u, v = np.meshgrid(np.arange(size, dtype=np.float64), np.arange(size, dtype=np.float64))
+    pts = np.stack([u.ravel(), v.ravel()], -1)[:, None, :]
+    norm = cv2.undistortPoints(pts, k, d).reshape(size, size, 2)
+    rays = np.concatenate([norm, np.ones((size, size, 1))], axis=-1)
+    frames = _remap(nadir, cfg.focal_px, rays)
+    path = tmp_path / "cam.yaml"
+    write_calibration(path, Calibration(k, d, (size, size)))
+    view = NadirView(read_calibration(path), size, size)
+    est = DispersionAltimeter(dispersion="gravity")
+    kw = {"fps": cfg.fps, "velocity_mps": sc.camera_velocity_mps}
+    fixed = est.estimate(view(frames), focal_px=view.focal_px, **kw)
+    raw = est.estimate(frames, focal_px=f, **kw)
+    assert fixed.trusted and abs(fixed.altitude_m / h - 1) < 0.03, fixed
+    assert abs(raw.altitude_m / h - 1) > 2 * abs(fixed.altitude_m / h - 1), (raw, fixed)
+
+
+def test_attitude_log_is_interpolated_and_checked(tmp_path) -> None:
+    path = tmp_path / "att.csv"
+    path.write_text("time_s,roll_deg,pitch_deg\n0,0,10\n1,4,6\n")
+    roll, pitch = read_attitude(path, np.array([0.0, 0.25, 1.0]))
+    assert np.allclose(roll, [0, 1, 4]) and np.allclose(pitch, [10, 9, 6])
+    with pytest.raises(ValueError, match="covers 0.000-1.000 s"):
+        read_attitude(path, np.array([0.0, 1.5]))
+    path.write_text("time_s,roll\n0,1\n")
+    with pytest.raises(ValueError, match="roll_deg, pitch_deg"):
+        read_attitude(path, np.zeros(2))
+    path.write_text("time_s,roll_deg,pitch_deg\n0,1,x\n")
+    with pytest.raises(ValueError, match="must be a number"):
+        read_attitude(path, np.zeros(2))
+
+
+def test_per_frame_attitude_levels_every_frame_alike() -> None:
+    # a still pattern seen through a swaying camera: levelled, every frame is the same
+    nadir = np.repeat(np.random.default_rng(1).random((1, 512, 512)).astype(np.float32), 4, 0)
+    nadir = cv2.GaussianBlur(nadir[0], (0, 0), 2.0)[None].repeat(4, 0)
+    roll, pitch = np.array([0.0, 3.0, 6.0, 9.0]), np.array([8.0, 6.0, 4.0, 2.0])
+    frames = np.stack([_remap(nadir[:1], 256.0, _pixel_rays(256, 256.0)
+                              @ tilt_rotation(r, p).T)[0] for r, p in zip(roll, pitch)])
+    view = NadirView(pinhole(256, 256, 256.0), 256, 256, roll_deg=roll, pitch_deg=pitch)
+    level = view(frames)
+    inner = level[:, 8:-8, 8:-8]
+    assert np.abs(inner - inner[:1]).max() < 0.05 * np.ptp(inner)
+    assert np.abs(frames - frames[:1]).max() > 0.3 * np.ptp(frames)
+
+
+def test_cli_levels_a_tilted_clip_from_its_calibration(tmp_path, run_cli) -> None:
+    from wavealt.dataset import write_frames_folder
+
+    h, roll, pitch = 6.0, -8.0, 12.0
+    nadir, sc, cfg = _scene("paper", h, 1)
+    frames = _remap(nadir, cfg.focal_px,
+                    _pixel_rays(256, cfg.focal_px) @ tilt_rotation(roll, pitch).T)
+    write_frames_folder(tmp_path / "clip", frames)
+    cal = tmp_path / "cam.json"
+    write_calibration(cal, pinhole(256, 256, cfg.focal_px))
+    vel = ",".join(str(v) for v in sc.camera_velocity_mps)
+    base = ["altitude", str(tmp_path / "clip"), "--fps", str(cfg.fps), "--calibration", str(cal),
+            "--dispersion", "gravity", "--velocity-mps", vel]
+    code, out, err = run_cli([*base, "--roll-deg", str(roll), "--pitch-deg", str(pitch), "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["trusted"] and abs(res["altitude_m"] / h - 1) < 0.03, res
+    att = tmp_path / "att.csv"
+    att.write_text(f"time_s,roll_deg,pitch_deg\n0,{roll},{pitch}\n")
+    code, out, err = run_cli([*base, "--attitude", str(att)])
+    assert code == 0, err
+    assert "levelled to nadir (attitude from" in out
+    code, out, err = run_cli([*base, "--attitude", str(att), "--roll-deg", "1"])
+    assert code == 2 and "not both" in err
+    code, out, err = run_cli([*base, "--focal-px", "200"])
+    assert code == 2 and "exactly one of --focal-px, --fov-deg and --calibration" in err

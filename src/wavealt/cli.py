@@ -254,7 +254,25 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
 
 
 @cli.command()
-@click.argument("input_path", metavar="INPUT", type=click.Path(path_type=Path))
+@click.argument("input_path", metavar="[INPUT]", type=click.Path(path_type=Path), required=False)
+@click.option("--live", default=None, metavar="SOURCE",
+              help="Estimate continuously from a camera device (/dev/video0 with --live-format "
+                   "v4l2), a stream URL (rtsp://, udp://, ...), a video file played at its own "
+                   "pace, or - for a pipe on standard input; instead of INPUT.  Windows of "
+                   "30 frames, a new estimate every 2 frames (--window, --step).  Logs to "
+                   "OUT/live.csv with --out; stops at the end of the stream, after --duration, "
+                   "or on Ctrl-C / SIGTERM.")
+@click.option("--live-format", default=None, metavar="FMT",
+              help="FFmpeg's input format of the --live source (v4l2, mpegts, h264, ...).")
+@click.option("--duration", type=float, default=None, metavar="S",
+              help="With --live: stop after S seconds.")
+@click.option("--velocity-from-vehicle", is_flag=True,
+              help="With --live and --mavlink: the vehicle's velocity over ground as the prior "
+                   "on the camera's velocity over the water, with --velocity-sigma-mps for the "
+                   "water's unknown current [1 m/s]; blind while none is heard.")
+@click.option("--tilt-from-vehicle", is_flag=True,
+              help="With --live and --mavlink: level each window with the vehicle's ATTITUDE "
+                   "(a camera fixed to the airframe, image top toward the nose).")
 @click.option("--fps", type=float, default=None,
               help="Frame rate of a frame folder, frames/s.  A video's own timestamps give its "
                    "frame times; --fps that contradicts them is an error unless --force-fps.")
@@ -310,13 +328,16 @@ def reproduce(out: Path, scale: str, device: str, train_runs: str | None,
                    "or a serial device); untrusted windows go out as invalid and out of range.")
 @click.option("--mavlink-range", default="0.5,20", show_default=True, metavar="MIN,MAX",
               help="The range (m) sent as the sensor's min/max distance.")
-def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: Path | None,
+def altitude(input_path: Path | None, live: str | None, live_format: str | None,
+             duration: float | None, velocity_from_vehicle: bool, tilt_from_vehicle: bool,
+             fps: float | None, force_fps: bool, frame_times: Path | None,
              focal_px: float | None, fov_deg: float | None, calibration: Path | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
              velocity_sigma_mps: float | None, as_json: bool, out: Path | None,
              force: bool, mavlink: str | None, mavlink_range: str) -> None:
-    """Altitude from a folder of frames or a video file, by the wave dispersion relation.
+    """Altitude from a folder of frames, a video file or a live stream, by the wave
+    dispersion relation.
 
     An estimate the altimeter cannot vouch for is still printed, marked NOT TRUSTED with
     the reason.
@@ -333,14 +354,41 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
     if attitude is not None and (roll_deg, pitch_deg) != (None, None):
         msg = "give --attitude or --roll-deg/--pitch-deg, not both"
         raise ValueError(msg)
+    if (input_path is None) == (live is None):
+        msg = "give INPUT (a frame folder or a video file) or --live SOURCE, one of them"
+        raise ValueError(msg)
+    if live is None and (live_format, duration) != (None, None):
+        msg = "--live-format and --duration go with --live"
+        raise ValueError(msg)
+    if (velocity_from_vehicle or tilt_from_vehicle) and (live is None or mavlink is None):
+        msg = "--velocity-from-vehicle and --tilt-from-vehicle need --live and --mavlink"
+        raise ValueError(msg)
+    if tilt_from_vehicle and (attitude, roll_deg, pitch_deg) != (None, None, None):
+        msg = "give --tilt-from-vehicle or a fixed/logged attitude, not both"
+        raise ValueError(msg)
+    if velocity_from_vehicle and velocity_mps is not None:
+        msg = "give --velocity-from-vehicle or --velocity-mps, not both"
+        raise ValueError(msg)
     velocity = _vector(velocity_mps, "velocity-mps", "VX,VY (m/s)")
     if velocity_sigma_mps is not None:
-        if velocity is None:
+        if velocity is None and not velocity_from_vehicle:
             msg = "--velocity-sigma-mps needs --velocity-mps (the velocity it is the spread of)"
             raise ValueError(msg)
         if not (math.isfinite(velocity_sigma_mps) and velocity_sigma_mps >= 0):
             msg = f"--velocity-sigma-mps must be a finite number >= 0; got {velocity_sigma_mps!r}"
             raise ValueError(msg)
+    if live is not None:
+        if dispersion == "auto":
+            dispersion = "gravity-capillary"
+        _altitude_live(live, live_format=live_format, duration=duration, focal_px=focal_px,
+                       fov_deg=fov_deg, calibration=calibration, roll_deg=roll_deg,
+                       pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
+                       dispersion=dispersion, velocity=velocity,
+                       velocity_sigma_mps=velocity_sigma_mps,
+                       velocity_from_vehicle=velocity_from_vehicle,
+                       tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
+                       force=force, mavlink=mavlink, mavlink_range=mavlink_range)
+        return
     if dispersion == "auto":
         from wavealt.evaluation import dispersion_of_input
 
@@ -387,6 +435,101 @@ def altitude(input_path: Path, fps: float | None, force_fps: bool, frame_times: 
         click.echo(view)
     if out is not None:
         click.echo(f"written: {out}")
+
+
+def _altitude_live(source: str, *, live_format: str | None, duration: float | None,
+                   focal_px: float | None, fov_deg: float | None, calibration: Path | None,
+                   roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
+                   window: int | None, step: int | None, dispersion: str,
+                   velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
+                   velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
+                   out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
+    """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
+    camera's levelling and the autopilot link."""
+    import json
+
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+    from wavealt.camera import NadirView, focal_px_from_fov, pinhole, read_calibration
+    from wavealt.dataset import check_output_folder
+    from wavealt.live import LIVE_FILE, run_live
+
+    if attitude is not None:
+        msg = "--attitude is a log for recorded input; live, use --tilt-from-vehicle"
+        raise ValueError(msg)
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        msg = f"--duration must be a positive number of seconds; got {duration!r}"
+        raise ValueError(msg)
+    window = 30 if window is None else window
+    step = max(1, window // 15) if step is None else step  # 30 frames: 15 estimates/s at most
+    if window < 3 or step < 1:
+        msg = f"--window must be >= 3 and --step >= 1; got {window} and {step}"
+        raise ValueError(msg)
+    if out is not None:
+        check_output_folder(out, (LIVE_FILE,), force=force)
+        out.mkdir(parents=True, exist_ok=True)
+    est = DispersionAltimeter(dispersion=dispersion)
+    sigma = velocity_sigma_mps
+    if velocity_from_vehicle and sigma is None:
+        sigma = 1.0
+    link = None
+    views: dict[tuple[int, int, float, float], Any] = {}
+
+    def camera(w: int, h: int, roll: float, pitch: float) -> tuple[Any, float]:
+        key = (w, h, round(roll * 2) / 2, round(pitch * 2) / 2)  # a new view per 0.5 deg
+        if key not in views:
+            if calibration is not None:
+                calib = read_calibration(calibration).for_size(w, h)
+            else:
+                f = focal_px if focal_px is not None else focal_px_from_fov(w, fov_deg)
+                calib = pinhole(w, h, f)
+            fixed = calibration is None and key[2:] == (0.0, 0.0)
+            views[key] = (None if fixed else NadirView(calib, w, h, roll_deg=key[2],
+                                                         pitch_deg=key[3]),
+                          calib.camera_matrix[0, 0])
+        return views[key]
+
+    def estimate(frames: np.ndarray, fps: float) -> dict[str, Any]:
+        roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
+        vel, sd = velocity, sigma or 0.0
+        if link is not None:
+            state = link.poll()
+            if tilt_from_vehicle and state.attitude_rad is not None:
+                roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
+            if velocity_from_vehicle:
+                vel = link.camera_velocity_mps()
+        view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
+        if view is not None:
+            frames, f = view(frames), view.focal_px
+        res = est.estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
+                           velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
+        if not as_json:
+            verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
+            click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "
+                       f"{res['mode']}  {verdict}")
+        return res
+
+    if mavlink is not None:
+        from wavealt.mavlink import MavlinkLink
+
+        lo, hi = _range(mavlink_range, "mavlink-range")
+        link = MavlinkLink(mavlink, min_m=lo, max_m=hi)
+    try:
+        summary = run_live(source, estimate=estimate, window=window, step=step, fmt=live_format,
+                           duration_s=duration,
+                           log=out / LIVE_FILE if out is not None else None,
+                           on_estimate=link.send_altitude if link is not None else None)
+    finally:
+        if link is not None:
+            link.close()
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    click.echo(f"{summary['estimates']} estimates ({summary['trusted_estimates']} trusted) from "
+               f"{summary['frames']} frames in {summary['seconds']:.1f} s, "
+               f"{summary['dropped_frames']} dropped; latency median "
+               f"{summary['latency_ms_median']:.0f} ms; stopped by {summary['stopped_by']}")
+    if out is not None:
+        click.echo(f"written: {out / LIVE_FILE}")
 
 
 def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,

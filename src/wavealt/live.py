@@ -1,0 +1,237 @@
+"""Live altimetry: frames from a camera, a stream or a pipe (PyAV), a rolling window, an
+estimate whenever ``step`` new frames have come, a CSV log, and optionally the autopilot.
+
+The reader runs in its own thread and never waits for the estimator: it keeps the newest
+frames in a ring buffer, and a frame that leaves the buffer before any window used it is
+counted as dropped.  The estimator takes a snapshot of the newest ``window`` frames; a
+snapshot that spans a gap in the frame times (the camera dropped frames) waits for the next.
+A file is played back at the pace of its own timestamps, as a camera would deliver it.
+SIGINT and SIGTERM stop the loop after the current estimate; the log is flushed and the
+link closed.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wavealt.video import GAP_TOLERANCE
+
+#: Columns of ``live.csv``, one row per estimate.
+LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
+                "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
+                "latency_ms", "dropped_frames")
+LIVE_FILE = "live.csv"
+
+
+@dataclass
+class _Buffered:
+    time_s: float
+    arrival: float  # time.monotonic() when the frame was decoded
+    frame: np.ndarray
+    used: bool = False
+
+
+@dataclass
+class ReaderStats:
+    frames: int = 0
+    dropped: int = 0
+    error: str | None = None
+    finished: bool = False
+    opened: threading.Event = field(default_factory=threading.Event)
+
+
+class FrameReader(threading.Thread):
+    """Decodes ``source`` (a file, a device, a URL, or ``-`` for standard input) into a ring
+    buffer of ``capacity`` frames, RGB uint8 with their times in seconds.
+
+    ``fmt`` is FFmpeg's input format (``v4l2`` for a camera device, ``mpegts`` or ``h264``
+    for a pipe); ``pace`` plays a file back at the rate of its timestamps.
+    """
+
+    def __init__(self, source: str, *, capacity: int, fmt: str | None = None,
+                 pace: bool | None = None) -> None:
+        super().__init__(name="wavealt-frame-reader", daemon=True)
+        self.source, self.fmt = source, fmt
+        self.pace = Path(source).is_file() if pace is None else pace
+        self.buffer: deque[_Buffered] = deque()
+        self.capacity = int(capacity)
+        self.lock = threading.Lock()
+        self.new_frame = threading.Condition(self.lock)
+        self.stop_event = threading.Event()
+        self.stats = ReaderStats()
+
+    def run(self) -> None:
+        import av
+
+        target = sys.stdin.buffer if self.source == "-" else self.source
+        try:
+            with av.open(target, format=self.fmt) as container:
+                if not container.streams.video:
+                    self._fail(f"{self.source} holds no video stream")
+                    return
+                self.stats.opened.set()
+                start = None
+                for frame in container.decode(video=0):
+                    if self.stop_event.is_set():
+                        break
+                    now = time.monotonic()
+                    t = frame.time if frame.time is not None else now
+                    if self.pace:
+                        start = (now - t) if start is None else start
+                        delay = start + t - time.monotonic()
+                        if delay > 0 and self.stop_event.wait(delay):
+                            break
+                    self._push(t, frame.to_ndarray(format="rgb24"))
+        except (av.error.FFmpegError, OSError) as exc:
+            self._fail(f"cannot read {self.source}: {exc}")
+            return
+        finally:
+            with self.lock:
+                self.stats.finished = True
+                self.stats.opened.set()
+                self.new_frame.notify_all()
+
+    def _fail(self, message: str) -> None:
+        self.stats.error = message
+        self.stats.opened.set()
+
+    def _push(self, t: float, frame: np.ndarray) -> None:
+        with self.lock:
+            self.buffer.append(_Buffered(float(t), time.monotonic(), frame))
+            self.stats.frames += 1
+            while len(self.buffer) > self.capacity:  # drop the oldest, never wait
+                if not self.buffer.popleft().used:
+                    self.stats.dropped += 1
+            self.new_frame.notify_all()
+
+    def snapshot(self, n: int, after: int, timeout: float) -> tuple[list[_Buffered], int]:
+        """The newest ``n`` frames once at least ``after`` frames have arrived in all (or
+        the stream ended: then the newest there are), and the count of frames arrived."""
+        with self.lock:
+            self.new_frame.wait_for(
+                lambda: self.stats.frames >= after or self.stats.finished
+                or self.stop_event.is_set(), timeout=timeout)
+            items = list(self.buffer)[-n:]
+            for it in items:
+                it.used = True
+            return items, self.stats.frames
+
+    def stop(self) -> None:
+        self.stop_event.set()
+        with self.lock:
+            self.new_frame.notify_all()
+
+
+def _regular(times: np.ndarray) -> bool:
+    d = np.diff(times)
+    return bool(d.size and np.all(d > 0) and np.all(np.abs(d / np.median(d) - 1) <= GAP_TOLERANCE))
+
+
+def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, Any]],
+             window: int, step: int, fmt: str | None = None, duration_s: float | None = None,
+             log: Path | None = None, on_estimate: Callable[[dict[str, Any]], Any] | None = None,
+             pace: bool | None = None, capacity: int | None = None) -> dict[str, Any]:
+    """Estimate the altitude from ``source`` until it ends, ``duration_s`` passes, or SIGINT /
+    SIGTERM; return a summary.
+
+    ``estimate(frames, fps)`` takes ``(window, H, W, 3)`` uint8 frames and their rate and
+    returns a result dict (``DispersionResult.to_dict()`` keys); each becomes a row of
+    ``log`` (``LIVE_COLUMNS``) and is passed to ``on_estimate``.
+    """
+    reader = FrameReader(source, capacity=capacity or 4 * window, fmt=fmt, pace=pace)
+    stop = threading.Event()
+    previous = {}
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        stop.set()
+        reader.stop()
+
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, on_signal)
+    fh = writer = None
+    t_start = time.monotonic()
+    rows, latencies, skipped, done_at = 0, [], 0, []
+    trusted = 0
+    try:
+        reader.start()
+        reader.stats.opened.wait(timeout=30.0)
+        if reader.stats.error:
+            raise ValueError(reader.stats.error)
+        if log is not None:
+            fh = log.open("w", newline="", encoding="utf-8")
+            writer = csv.DictWriter(fh, fieldnames=LIVE_COLUMNS)
+            writer.writeheader()
+            fh.flush()
+        seen = 0
+        while not stop.is_set():
+            if duration_s is not None and time.monotonic() - t_start >= duration_s:
+                break
+            need = max(window, seen + step)
+            items, arrived = reader.snapshot(window, need, timeout=0.5)
+            if reader.stats.error:
+                raise ValueError(reader.stats.error)
+            if arrived < need:
+                if reader.stats.finished:
+                    break
+                continue  # timed out waiting: check the stop conditions again
+            seen = arrived
+            times = np.array([it.time_s for it in items])
+            if len(items) < window or not _regular(times):
+                skipped += 1
+                continue
+            fps = (len(times) - 1) / (times[-1] - times[0])
+            res = estimate(np.stack([it.frame for it in items]), float(fps))
+            if on_estimate is not None:
+                on_estimate(res)
+            # from the window's last frame to the estimate delivered (sent, when linked)
+            latency = time.monotonic() - items[-1].arrival
+            latencies.append(latency)
+            done_at.append(time.monotonic())
+            row = {"wall_time": round(time.time(), 3), "time_s": round(float(times[-1]), 4),
+                   "altitude_m": res["altitude_m"], "altitude_std_m": res["altitude_std_m"],
+                   "camera_vx_mps": res["camera_velocity_mps"][0],
+                   "camera_vy_mps": res["camera_velocity_mps"][1],
+                   "trusted": res["trusted"], "reason": res["reason"] or "",
+                   "quality": res["quality"], "mode": res["mode"], "frames": len(items),
+                   "fps": round(float(fps), 3), "latency_ms": round(1e3 * latency, 1),
+                   "dropped_frames": reader.stats.dropped}
+            if writer is not None:
+                writer.writerow(row)
+                fh.flush()
+            rows += 1
+            trusted += bool(res["trusted"])
+    finally:
+        reader.stop()
+        reader.join(timeout=5.0)
+        if fh is not None:
+            fh.close()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    elapsed = time.monotonic() - t_start
+    lat = np.array(latencies) if latencies else np.array([math.nan])
+    return {"estimates": rows, "trusted_estimates": trusted, "frames": reader.stats.frames,
+            "dropped_frames": reader.stats.dropped, "windows_skipped_for_gaps": skipped,
+            "seconds": round(elapsed, 3),
+            # the steady rate: from the first estimate (once a window has filled) to the last
+            "estimates_per_s": (round((rows - 1) / (done_at[-1] - done_at[0]), 3)
+                                if rows > 1 and done_at[-1] > done_at[0] else 0.0),
+            "latency_ms_median": round(1e3 * float(np.median(lat)), 1),
+            "latency_ms_p90": round(1e3 * float(np.quantile(lat, 0.9)), 1),
+            "stopped_by": ("signal" if stop.is_set() else "end of stream"
+                           if reader.stats.finished else "duration")}
+
+
+__all__ = ["LIVE_COLUMNS", "LIVE_FILE", "FrameReader", "ReaderStats", "run_live"]

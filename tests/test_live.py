@@ -1,0 +1,171 @@
+"""``wavealt altitude --live``: a real PyAV stream read in its own thread, a rolling window,
+drops counted rather than waited for, windows that never span a gap, a clean stop on
+SIGTERM, and the vehicle's velocity from MAVLink on the loopback as the prior."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from wavealt.live import LIVE_COLUMNS, run_live
+from wavealt.scenario import preset_config
+from wavealt.simulate import generate_sequence
+from wavealt.video import write_video
+
+
+def _clip(path, *, frames: int = 60, size: int = 64, times_s=None):
+    cfg = preset_config("paper", size=size, frames=frames, altitude_m=(3.0, 3.0),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3))
+    sc = cfg.sample_scenario(2)
+    data = generate_sequence(sc, cfg)
+    write_video(path, data.clean, fps=cfg.fps, times_s=times_s)
+    return sc, cfg
+
+
+def _rows(path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_live_playback_gives_the_estimates_of_the_recorded_file(tmp_path, run_cli) -> None:
+    sc, cfg = _clip(tmp_path / "clip.mp4")
+    common = ["--focal-px", str(cfg.focal_px), "--dispersion", "gravity", "--window", "10",
+              "--step", "5", "--velocity-mps", ",".join(map(str, sc.camera_velocity_mps))]
+    code, _, err = run_cli(["altitude", "--live", str(tmp_path / "clip.mp4"), *common,
+                            "--out", str(tmp_path / "live")])
+    assert code == 0, err
+    code, _, err = run_cli(["altitude", str(tmp_path / "clip.mp4"), *common,
+                            "--out", str(tmp_path / "file")])
+    assert code == 0, err
+    live = _rows(tmp_path / "live" / "live.csv")
+    rec = _rows(tmp_path / "file" / "altitude.csv")
+    assert list(live[0]) == list(LIVE_COLUMNS)
+    # the same windows (frames 0-10, 5-15, ...) give the same altitudes, in order
+    assert len(live) == len(rec) == 11
+    for a, b in zip(live, rec):
+        assert float(a["altitude_m"]) == pytest.approx(float(b["altitude_m"]), rel=1e-5)
+        assert float(a["fps"]) == pytest.approx(30.0, rel=1e-3)
+        assert a["mode"] == "exact"
+
+
+def test_a_slow_estimator_drops_the_oldest_frames_and_never_stalls_the_reader(tmp_path) -> None:
+    _clip(tmp_path / "clip.mp4")
+    seen = []
+
+    def slow(frames: np.ndarray, fps: float) -> dict:
+        seen.append(frames.shape[0])
+        time.sleep(0.25)  # far slower than 30 frames/s
+        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+    t0 = time.monotonic()
+    summary = run_live(str(tmp_path / "clip.mp4"), estimate=slow, window=5, step=1, capacity=8)
+    elapsed = time.monotonic() - t0
+    assert summary["frames"] == 60  # every frame was read, at the file's own pace
+    # about 7.5 frames come per estimate and it takes 5: the rest leave the buffer unused
+    assert summary["dropped_frames"] > 10
+    assert summary["estimates"] == len(seen) < 20 and set(seen) == {5}
+    assert elapsed < 2.0 + 0.25 * len(seen) + 1.0  # 2 s of stream: the reader never waited
+    assert summary["stopped_by"] == "end of stream"
+
+
+def test_windows_never_span_a_gap_in_the_frame_times(tmp_path) -> None:
+    times = np.arange(40) / 30.0
+    times[20:] += 5 / 30.0  # five frames lost after frame 19
+    _clip(tmp_path / "gap.mp4", frames=40, times_s=times)
+    rates = []
+
+    def record(frames: np.ndarray, fps: float) -> dict:
+        rates.append(fps)
+        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+    summary = run_live(str(tmp_path / "gap.mp4"), estimate=record, window=10, step=2,
+                       pace=False, capacity=1000)
+    assert summary["windows_skipped_for_gaps"] >= 4
+    assert rates and np.allclose(rates, 30.0, rtol=1e-3)
+
+
+def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:
+    sc, cfg = _clip(tmp_path / "long.mp4", frames=240)  # 8 s at its own pace
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "wavealt", "altitude", "--live", str(tmp_path / "long.mp4"),
+           "--focal-px", str(cfg.focal_px), "--window", "10", "--step", "5",
+           "--velocity-mps", "0,0", "--out", str(out)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if (out / "live.csv").is_file() and len(_rows(out / "live.csv")) >= 2:
+                break
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    assert "stopped by signal" in stdout
+    rows = _rows(out / "live.csv")
+    assert 2 <= len(rows) < 47  # stopped well before the stream's end
+    assert all(None not in r.values() and r["altitude_m"] for r in rows)
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--live", "missing.mp4", "--focal-px", "200"], "cannot read missing.mp4"),
+    (["clip", "--live", "x.mp4", "--focal-px", "200"], "INPUT (a frame folder"),
+    (["--focal-px", "200"], "INPUT (a frame folder"),
+    (["clip", "--focal-px", "200", "--duration", "3"], "go with --live"),
+    (["--live", "x.mp4", "--focal-px", "200", "--velocity-from-vehicle"], "need --live and --mavlink"),
+    (["--live", "x.mp4", "--focal-px", "200", "--duration", "-1"], "--duration must be"),
+])
+def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) -> None:
+    os.chdir(tmp_path)
+    code, out, err = run_cli(["altitude", *argv])
+    assert code == 2 and match in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_the_vehicles_velocity_becomes_the_prior(tmp_path, run_cli) -> None:
+    from test_mavlink import _free_port
+
+    from wavealt.mavlink import use_mavlink2
+
+    mavutil = use_mavlink2()
+    sc, cfg = _clip(tmp_path / "clip.mp4", frames=90)
+    port = _free_port()
+    autopilot = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+    stop = threading.Event()
+
+    def vehicle() -> None:  # answers once it has heard the companion computer
+        while not stop.is_set():
+            if autopilot.recv_match(blocking=True, timeout=0.05) is not None:
+                autopilot.mav.local_position_ned_send(0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0)
+                autopilot.mav.attitude_send(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    thread = threading.Thread(target=vehicle, daemon=True)
+    thread.start()
+    try:
+        code, _, err = run_cli(["altitude", "--live", str(tmp_path / "clip.mp4"),
+                                "--focal-px", str(cfg.focal_px), "--window", "10", "--step", "5",
+                                "--mavlink", f"udpout:127.0.0.1:{port}",
+                                "--velocity-from-vehicle", "--velocity-sigma-mps", "0.5",
+                                "--out", str(tmp_path / "out")])
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+        autopilot.close()
+    assert code == 0, err
+    modes = [r["mode"] for r in _rows(tmp_path / "out" / "live.csv")]
+    # blind until the vehicle's velocity is heard, then a prior around it
+    assert modes[0] == "blind" and modes[-1] == "prior", modes
+    assert json.dumps(modes).count("prior") >= 5

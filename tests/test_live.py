@@ -1,6 +1,6 @@
 """``wavealt altitude --live``: a real PyAV stream read in its own thread, a rolling window,
 drops counted rather than waited for, windows that never span a gap, a clean stop on
-SIGTERM, and the vehicle's velocity from MAVLink on the loopback as the prior."""
+SIGTERM, and the vehicle's velocity and attitude from MAVLink on the loopback."""
 
 from __future__ import annotations
 
@@ -135,7 +135,7 @@ def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) 
     assert code == 2 and match in err and len(err.strip().splitlines()) == 1, err
 
 
-def test_the_vehicles_velocity_becomes_the_prior(tmp_path, run_cli) -> None:
+def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     from test_mavlink import _free_port
 
     from wavealt.mavlink import use_mavlink2
@@ -150,7 +150,7 @@ def test_the_vehicles_velocity_becomes_the_prior(tmp_path, run_cli) -> None:
         while not stop.is_set():
             if autopilot.recv_match(blocking=True, timeout=0.05) is not None:
                 autopilot.mav.local_position_ned_send(0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0)
-                autopilot.mav.attitude_send(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                autopilot.mav.attitude_send(0, 0.1, -0.05, 0.0, 0.0, 0.0, 0.0)
 
     thread = threading.Thread(target=vehicle, daemon=True)
     thread.start()
@@ -159,13 +159,17 @@ def test_the_vehicles_velocity_becomes_the_prior(tmp_path, run_cli) -> None:
                                 "--focal-px", str(cfg.focal_px), "--window", "10", "--step", "5",
                                 "--mavlink", f"udpout:127.0.0.1:{port}",
                                 "--velocity-from-vehicle", "--velocity-sigma-mps", "0.5",
+                                "--tilt-from-vehicle",
                                 "--out", str(tmp_path / "out")])
     finally:
         stop.set()
         thread.join(timeout=2)
         autopilot.close()
     assert code == 0, err
-    modes = [r["mode"] for r in _rows(tmp_path / "out" / "live.csv")]
+    rows = _rows(tmp_path / "out" / "live.csv")
+    modes = [r["mode"] for r in rows]
     # blind until the vehicle's velocity is heard, then a prior around it
     assert modes[0] == "blind" and modes[-1] == "prior", modes
     assert json.dumps(modes).count("prior") >= 5
+    # levelled with the vehicle's attitude once heard (rounded to the view cache's 0.5 deg)
+    assert (float(rows[-1]["roll_deg"]), float(rows[-1]["pitch_deg"])) == (5.5, -3.0)

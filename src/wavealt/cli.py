@@ -475,7 +475,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     views: dict[tuple[int, int, float, float], Any] = {}
 
     def camera(w: int, h: int, roll: float, pitch: float) -> tuple[Any, float]:
-        key = (w, h, round(roll * 2) / 2, round(pitch * 2) / 2)  # a new view per 0.5 deg
+        key = (w, h, roll, pitch)
         if key not in views:
             if calibration is not None:
                 calib = read_calibration(calibration).for_size(w, h)
@@ -497,11 +497,14 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                 roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
             if velocity_from_vehicle:
                 vel = link.camera_velocity_mps()
+        roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
         view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
         if view is not None:
             frames, f = view(frames), view.focal_px
         res = est.estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
                            velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
+        if view is not None:
+            res["roll_deg"], res["pitch_deg"] = roll, pitch
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

@@ -31,7 +31,7 @@ from wavealt.video import GAP_TOLERANCE
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
                 "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
-                "latency_ms", "dropped_frames")
+                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg")
 LIVE_FILE = "live.csv"
 
 
@@ -147,8 +147,9 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     SIGTERM; return a summary.
 
     ``estimate(frames, fps)`` takes ``(window, H, W, 3)`` uint8 frames and their rate and
-    returns a result dict (``DispersionResult.to_dict()`` keys); each becomes a row of
-    ``log`` (``LIVE_COLUMNS``) and is passed to ``on_estimate``.
+    returns a result dict (``DispersionResult.to_dict()`` keys, and the attitude the frames
+    were levelled with as ``roll_deg`` and ``pitch_deg`` where they were); each becomes a
+    row of ``log`` (``LIVE_COLUMNS``) and is passed to ``on_estimate``.
     """
     reader = FrameReader(source, capacity=capacity or 4 * window, fmt=fmt, pace=pace)
     stop = threading.Event()
@@ -207,7 +208,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                    "trusted": res["trusted"], "reason": res["reason"] or "",
                    "quality": res["quality"], "mode": res["mode"], "frames": len(items),
                    "fps": round(float(fps), 3), "latency_ms": round(1e3 * latency, 1),
-                   "dropped_frames": reader.stats.dropped}
+                   "dropped_frames": reader.stats.dropped,
+                   "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", "")}
             if writer is not None:
                 writer.writerow(row)
                 fh.flush()

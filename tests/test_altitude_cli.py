@@ -144,7 +144,7 @@ def test_video_roundtrip_and_windows(tmp_path, run_cli, frames) -> None:
 
 
 @pytest.mark.parametrize("argv_tail, match", [
-    (["--fps", "30"], "exactly one of --focal-px and --fov-deg"),
+    (["--fps", "30"], "exactly one of --focal-px, --fov-deg and --calibration"),
     (["--fps", "30", "--focal-px", "50", "--fov-deg", "60"], "exactly one"),
     (["--fps", "-1", "--focal-px", "50"], "fps"),
     # a single number is not read as (1, 1)

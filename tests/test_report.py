@@ -7,6 +7,7 @@ import base64
 import json
 import math
 
+import numpy as np
 import pytest
 
 from wavealt.cli import main
@@ -66,7 +67,17 @@ def test_side_by_side_lists_every_method_and_condition_and_judges_the_baseline()
                         label="constant 3.00 m (dataset train split)"),
     }
     evals["dispersion"]["metrics"]["glinty"]["n"] = 0
-    md = "\n".join(side_by_side_markdown(evals))
+    rng = np.random.default_rng(0)
+    ids = [f"s{i}" for i in range(20)]
+    base = {c: dict(zip(ids, rng.uniform(1.5, 2.5, 20))) for c in ("clean", "glinty", "residual")}
+    errors = {"constant": base,
+              # clean: every sequence 1 m better; glinty: 0.1 m better, noise of +-1 m
+              "cnn-clean": {"clean": {k: v - 1.0 for k, v in base["clean"].items()},
+                            "glinty": {k: max(0.0, v - 0.1 + rng.uniform(-1, 1))
+                                       for k, v in base["glinty"].items()},
+                            "residual": {k: v + 1.0 for k, v in base["residual"].items()}},
+              "dispersion": {"clean": {k: 0.1 for k in ids}}}
+    md = "\n".join(side_by_side_markdown(evals, errors=errors))
     mae_table = md.split("### Relative MAE")[0]
     rows = [r for r in mae_table.splitlines() if r.startswith("| ")]
     assert rows[0] == "| Method | Clean | Glinty | Residual (TMF) |"
@@ -76,11 +87,32 @@ def test_side_by_side_lists_every_method_and_condition_and_judges_the_baseline()
     rel = md.split("### Relative MAE")[1].split("##")[0]
     assert "| cnn (resnet-small, trained on clean) | 10.0 | 19.0 | 30.0 |" in rel
     verdict = md.split("## What beats the constant baseline")[1]
-    # 10 % margin: 1.9 m against 2.0 m does not count
-    assert "cnn (resnet-small, trained on clean): **beats it on Clean (1.00 m)**; not on " \
-           "Glinty (1.90 m), Residual (TMF) (3.00 m)." in verdict
-    assert "dispersion (gravity): **beats it on Clean (0.10 m)**; no estimate on Glinty." in verdict
+    cnn = next(line for line in verdict.splitlines() if line.startswith("- cnn"))
+    # clean: 1 m better on every sequence; glinty: 0.1 m within noise; residual: 1 m worse
+    assert cnn.startswith("- cnn (resnet-small, trained on clean): **beats it on Clean (1.00 m, "
+                          "-1.00 [-1.00, -1.00] m, n=20)**; no clear difference on Glinty")
+    assert "; worse on Residual (TMF) (3.00 m, +1.00 [+1.00, +1.00] m, n=20)." in cnn
+    assert ("dispersion (gravity): **beats it on Clean (0.10 m, " in verdict
+            and "; no estimate on Glinty." in verdict)
     assert not any(line.startswith("- constant") for line in verdict.splitlines())
+    # without per-sequence errors nothing is judged
+    bare = "\n".join(side_by_side_markdown(evals)).split("## What beats")[1]
+    assert "**beats it on" not in bare and "no per-sequence predictions to test on Clean" in bare
+
+
+def test_paired_bootstrap_of_the_mae_difference() -> None:
+    from wavealt.evaluation import paired_mae_difference
+
+    rng = np.random.default_rng(1)
+    hard = rng.uniform(0, 5, 25)  # what both methods share does not widen the interval
+    d = paired_mae_difference(hard + 0.2 + rng.normal(0, 0.05, 25), hard)
+    assert d["n"] == 25 and 0.15 < d["lo_m"] < d["diff_m"] < d["hi_m"] < 0.25
+    same = paired_mae_difference(hard + rng.normal(0, 0.5, 25), hard)
+    assert same["lo_m"] < 0 < same["hi_m"]
+    nan = paired_mae_difference([1.0, np.nan, 2.0], [0.5, 0.5, 0.5])
+    assert nan["n"] == 2
+    with pytest.raises(ValueError, match="same sequences"):
+        paired_mae_difference([1.0], [1.0, 2.0])
 
 
 def test_side_by_side_adds_a_trusted_only_row_for_self_grading_methods() -> None:
@@ -101,9 +133,13 @@ def test_side_by_side_adds_a_trusted_only_row_for_self_grading_methods() -> None
     rel = md.split("### Relative MAE")[1].split("##")[0]
     assert "| dispersion (gravity, blind), trusted only | 0.5 (n=2) | — (n=0) |" in rel
     # the verdict against the baseline counts every sequence, flagged or not
-    verdict = md.split("## What beats the constant baseline")[1]
-    assert "- dispersion (gravity, blind): **beats it on Clean (0.80 m)**; not on Glinty (1.20 m)." \
-        in verdict
+    ids = [f"s{i}" for i in range(10)]
+    errors = {"constant": {c: dict.fromkeys(ids, 1.0) for c in ("clean", "glinty")},
+              "dispersion": {"clean": dict.fromkeys(ids, 0.8), "glinty": dict.fromkeys(ids, 1.2)}}
+    verdict = "\n".join(side_by_side_markdown(evals, errors=errors)).split(
+        "## What beats the constant baseline")[1]
+    assert ("- dispersion (gravity, blind): **beats it on Clean (0.80 m, -0.20 [-0.20, -0.20] m, "
+            "n=10)**; worse on Glinty (1.20 m, +0.20 [+0.20, +0.20] m, n=10).") in verdict
     assert "trusted only" not in verdict
 
 

@@ -427,6 +427,42 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
     return result
 
 
+def paired_mae_difference(err_a: Sequence[float], err_b: Sequence[float], *,
+                          n_boot: int = 10000, level: float = 0.95,
+                          seed: int = 0) -> dict[str, float]:
+    """``MAE(a) - MAE(b)`` over the same test sequences, with its percentile bootstrap
+    interval at ``level`` (the sequences resampled with their pairs of errors, so what the
+    two methods share — hard sequences — does not widen it).  Pairs with a non-finite error
+    are left out; ``n`` counts the rest (NaN interval below 2)."""
+    a = np.abs(np.asarray(err_a, np.float64))
+    b = np.abs(np.asarray(err_b, np.float64))
+    if a.shape != b.shape:
+        msg = f"paired errors need the same sequences; got {a.size} and {b.size}"
+        raise ValueError(msg)
+    d = (a - b)[np.isfinite(a) & np.isfinite(b)]
+    if d.size < 2:
+        return {"n": int(d.size), "diff_m": float(d.mean()) if d.size else math.nan,
+                "lo_m": math.nan, "hi_m": math.nan}
+    rng = np.random.default_rng(seed)
+    boots = d[rng.integers(0, d.size, (int(n_boot), d.size))].mean(axis=1)
+    lo, hi = np.quantile(boots, [(1 - level) / 2, (1 + level) / 2])
+    return {"n": int(d.size), "diff_m": float(d.mean()), "lo_m": float(lo), "hi_m": float(hi)}
+
+
+def read_abs_errors(path: Path | str) -> dict[str, dict[str, float]]:
+    """``condition -> {sequence_id: absolute error (m)}`` from an evaluation's
+    ``predictions.csv`` (a failed prediction: NaN)."""
+    out: dict[str, dict[str, float]] = {}
+    with Path(path).open(newline="", encoding="utf-8") as fh:
+        for row in csv.DictReader(fh):
+            try:
+                err = abs(float(row["predicted_m"]) - float(row["altitude_m"]))
+            except ValueError:
+                err = math.nan
+            out.setdefault(row["condition"], {})[row["sequence_id"]] = err
+    return out
+
+
 def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -493,4 +529,5 @@ def table_markdown(result: EvaluationResult) -> str:
 __all__ = ["METRIC_KEYS", "PAPER_TABLE2", "PRIOR_SIGMA_MPS", "CnnEstimator", "ConstantEstimator",
            "DispersionEstimator", "EvaluationResult", "GradedEstimate", "altitude_metrics",
            "dispersion_of", "dispersion_of_input", "evaluate", "parse_estimator",
-           "predictions_csv", "table_markdown", "train_split_mean_m"]
+           "paired_mae_difference", "predictions_csv", "read_abs_errors", "table_markdown",
+           "train_split_mean_m"]

@@ -296,6 +296,14 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
     # run folders inside OUT are named relative to it (the report travels with OUT)
     evals = {k: {**e, "baseline_label": str(e.get("baseline_label", "")).replace(f"{out}/", "")}
              for k, e in evals.items()}
+    errors = {}
+    for name in evals:
+        path = out / "eval" / name / "predictions.csv"
+        if path.is_file():
+            from wavealt.evaluation import read_abs_errors
+
+            errors[name] = read_abs_errors(path)
+    L += verdict_paragraph(evals, errors)
     main = evals.get("cnn-clean")
     L += ["## Table 2 — CNN trained on clean, tested per condition (ours vs the paper)", ""]
     if main:
@@ -322,7 +330,7 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
         L += ["(not available: the CNN trained on clean did not run; see the stage table)", ""]
 
     # every method side by side
-    L += side_by_side_markdown(evals, stages)
+    L += side_by_side_markdown(evals, stages, errors)
     L += _deglint_quality_markdown(out / "dataset")
 
     # figures
@@ -391,7 +399,9 @@ def _method_label(name: str, e: dict[str, Any]) -> str:
 
 
 def side_by_side_markdown(evals: dict[str, dict[str, Any]],
-                          stages: dict[str, Any] | None = None) -> list[str]:
+                          stages: dict[str, Any] | None = None,
+                          errors: dict[str, dict[str, dict[str, float]]] | None = None
+                          ) -> list[str]:
     """Every evaluated method against every test condition (MAE, relative MAE) and the honest
     verdict against the constant baseline, as markdown lines.
 
@@ -402,6 +412,10 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
         records them; ``"constant"`` is the baseline.
     stages : dict, optional
         ``stages.json``; skipped stages are listed.
+    errors : dict, optional
+        ``name -> condition -> {sequence_id: absolute error}`` (the evaluations'
+        ``predictions.csv``, :func:`wavealt.evaluation.read_abs_errors`) for the verdict's
+        paired test; without them no method is judged.
     """
     conds = _ordered_conditions(evals)
     L = ["## Every method × every test condition", "",
@@ -461,35 +475,91 @@ def side_by_side_markdown(evals: dict[str, dict[str, Any]],
     L.append("The constant baseline (always the training-set mean altitude) scores MAE "
              + ", ".join(f"{_f(cm[c]['mae_m'])} m ({_f(cm[c]['rel_mae_pct'])} %) on {_label(c)}"
                          for c in conds[:1] if c in cm)
-             + " (the same on every condition: it does not look at the frames). We count a "
-             "method as beating it on a condition only when its MAE there is at least 10 % lower.")
+             + " (the same on every condition: it does not look at the frames). A method "
+             "beats it on a condition when the 95 % paired bootstrap interval of the "
+             "difference of MAEs over the same test sequences lies wholly below zero, and "
+             "is worse when it lies wholly above; otherwise this test split cannot tell them "
+             "apart.")
     L.append("")
+    for name, judged in baseline_verdicts(evals, errors).items():
+        e = evals[name]
+        parts = {k: [f"{_label(c)} ({txt})" if txt else _label(c)
+                     for c, status, txt in judged if status == k]
+                 for k in ("beats", "worse", "tie", "untested", "failed")}
+        line = (("**beats it on " + ", ".join(parts["beats"]) + "**") if parts["beats"]
+                else "**beats it nowhere**")
+        for key, words in (("tie", "no clear difference on"), ("worse", "worse on"),
+                           ("untested", "no per-sequence predictions to test on"),
+                           ("failed", "no estimate on")):
+            if parts[key]:
+                line += f"; {words} {', '.join(parts[key])}"
+        L.append(f"- {_method_label(name, e)}: {line}.")
+    L += ["", "MAE differences are (method − constant) in metres with their 95 % interval. A "
+          "model that does not beat the constant has not learnt altitude, whatever its MAE "
+          "looks like next to the paper's. The dispersion altimeter measures the waves' "
+          "motion from frame to frame: a temporal filter over the whole window (`median`, "
+          "`percentile`, `tmf-min`) freezes that motion, so it cannot work on those "
+          "conditions.", ""]
+    return L
+
+
+def baseline_verdicts(evals: dict[str, dict[str, Any]],
+                      errors: dict[str, dict[str, dict[str, float]]] | None
+                      ) -> dict[str, list[tuple[str, str, str]]]:
+    """Per method (the constant baseline aside), per test condition: ``(condition, status,
+    text)`` with status ``beats``, ``worse``, ``tie`` (the paired bootstrap interval of the
+    MAE difference against the constant, :func:`wavealt.evaluation.paired_mae_difference`,
+    holds zero), ``untested`` (no per-sequence errors) or ``failed`` (no estimate)."""
+    from wavealt.evaluation import paired_mae_difference
+
+    errors = errors or {}
+    conds = _ordered_conditions(evals)
+    base = errors.get("constant", {})
+    cm = evals["constant"]["metrics"]
+    out: dict[str, list[tuple[str, str, str]]] = {}
     for name, e in evals.items():
         if name == "constant":
             continue
-        beat, lose, fail = [], [], []
+        judged = []
         for c in conds:
-            v, b = e["metrics"].get(c), cm.get(c)
-            if v is None or b is None:
+            v = e["metrics"].get(c)
+            if v is None or c not in cm:
                 continue
             if not math.isfinite(v["mae_m"]) or v["n"] == 0:
-                fail.append(_label(c))
-            elif v["mae_m"] < 0.9 * b["mae_m"]:
-                beat.append(f"{_label(c)} ({_f(v['mae_m'])} m)")
-            else:
-                lose.append(f"{_label(c)} ({_f(v['mae_m'])} m)")
-        verdict = ("**beats it on " + ", ".join(beat) + "**") if beat else "**beats it nowhere**"
-        rest = f"; not on {', '.join(lose)}" if lose and beat else (
-            f" ({', '.join(lose)})" if lose else "")
-        gave_up = f"; no estimate on {', '.join(fail)}" if fail else ""
-        L.append(f"- {_method_label(name, e)}: {verdict}{rest}{gave_up}.")
-    L += ["", "A test split this small (see n above) makes differences of a few tenths of a "
-          "metre noise; a model that does not beat the constant has not learnt altitude, "
-          "whatever its MAE looks like next to the paper's. The dispersion altimeter measures "
-          "the waves' motion from frame to frame: a temporal filter over the whole window "
-          "(`median`, `percentile`, `tmf-min`) freezes that motion, so it cannot work on "
-          "those conditions.", ""]
-    return L
+                judged.append((c, "failed", ""))
+                continue
+            mine, theirs = errors.get(name, {}).get(c), base.get(c)
+            shared = sorted(set(mine or ()) & set(theirs or ()))
+            if len(shared) < 2:
+                judged.append((c, "untested", f"{_f(v['mae_m'])} m"))
+                continue
+            d = paired_mae_difference([mine[k] for k in shared], [theirs[k] for k in shared])
+            status = "beats" if d["hi_m"] < 0 else "worse" if d["lo_m"] > 0 else "tie"
+            judged.append((c, status, f"{_f(v['mae_m'])} m, {_f(d['diff_m'], True)} "
+                                      f"[{_f(d['lo_m'], True)}, {_f(d['hi_m'], True)}] m, "
+                                      f"n={d['n']}"))
+        out[name] = judged
+    return out
+
+
+def verdict_paragraph(evals: dict[str, dict[str, Any]],
+                      errors: dict[str, dict[str, dict[str, float]]] | None) -> list[str]:
+    """The report's opening verdict: which methods beat the constant baseline where
+    (:func:`baseline_verdicts`), in a few sentences."""
+    if "constant" not in evals:
+        return []
+    L = ["## Verdict", ""]
+    for name, judged in baseline_verdicts(evals, errors).items():
+        beats = [_label(c) for c, status, _ in judged if status == "beats"]
+        worse = [_label(c) for c, status, _ in judged if status == "worse"]
+        n_tested = sum(status in ("beats", "worse", "tie") for _, status, _ in judged)
+        text = (f"beats the constant baseline on {', '.join(beats)}" if beats
+                else "does not beat the constant baseline on any condition")
+        if worse:
+            text += f", and is worse than it on {', '.join(worse)}"
+        L.append(f"- **{_method_label(name, evals[name])}** {text} "
+                 f"({n_tested} condition(s) tested, 95 % paired bootstrap).")
+    return [*L, ""]
 
 
 def _deglint_quality_markdown(ds_path: Path) -> list[str]:
@@ -563,4 +633,4 @@ def markdown_to_html(md: str, *, base: Path) -> str:
 
 
 __all__ = ["SCALES", "ReproduceScale", "build_report_markdown", "markdown_to_html", "reproduce",
-           "side_by_side_markdown"]
+           "side_by_side_markdown", "baseline_verdicts", "verdict_paragraph"]

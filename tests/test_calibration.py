@@ -167,7 +167,7 @@ def test_attitude_log_is_interpolated_and_checked(tmp_path) -> None:
     with pytest.raises(ValueError, match="covers 0.000-1.000 s"):
         read_attitude(path, np.array([0.0, 1.5]))
     path.write_text("time_s,roll\n0,1\n")
-    with pytest.raises(ValueError, match="roll_deg, pitch_deg"):
+    with pytest.raises(ValueError, match="time_s, roll_deg, pitch_deg"):
         read_attitude(path, np.zeros(2))
     path.write_text("time_s,roll_deg,pitch_deg\n0,1,x\n")
     with pytest.raises(ValueError, match="must be a number"):

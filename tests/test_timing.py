@@ -74,7 +74,7 @@ def test_folder_timing_and_its_errors(tmp_path) -> None:
     clip = read_clip(folder, frame_times=csv)
     np.testing.assert_allclose(clip.times_s, 0.05 * np.arange(5), atol=1e-9)
     assert clip.source_fps == pytest.approx(20.0)
-    bad = {"time,x\n1,2\n": "needs a header with a time_s column",
+    bad = {"time,x\n1,2\n": "needs a header with the column\\(s\\) time_s",
            "time_s\n0\n0.1\n": "has 2 rows for 5 frames",
            "time_s\n0\n0.1\n0.1\n0.2\n0.3\n": "strictly increasing",
            "time_s\n0\nabc\n0.2\n0.3\n0.4\n": "every time_s must be a number"}

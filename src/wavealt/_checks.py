@@ -94,3 +94,27 @@ def check_choice(name: str, value: Any, choices: Any) -> Any:
         msg = f"{name} must be one of {', '.join(map(str, choices))}; got {value!r}"
         raise ValueError(msg)
     return value
+
+
+def read_number_columns(path: Any, columns: tuple[str, ...], what: str) -> Any:
+    """The ``columns`` of a CSV file with a header, as a ``(rows, len(columns))`` float64
+    array; a missing file, header column or a cell that is not a number is a one-line
+    error naming ``what`` the file is (e.g. ``"attitude file"``)."""
+    import csv
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        msg = f"{what} not found: {path}"
+        raise FileNotFoundError(msg)
+    with path.open(newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        if any(c not in (reader.fieldnames or []) for c in columns):
+            msg = f"{what} {path} needs a header with the column(s) {', '.join(columns)}"
+            raise ValueError(msg)
+        try:
+            return np.array([[float(row[c]) for c in columns] for row in reader],
+                            np.float64).reshape(-1, len(columns))
+        except (TypeError, ValueError):
+            msg = f"{what} {path}: every {', '.join(columns)} must be a number"
+            raise ValueError(msg) from None

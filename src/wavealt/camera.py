@@ -369,24 +369,9 @@ def read_attitude(path: str | Path, times_s: np.ndarray) -> tuple[np.ndarray, np
     """The camera's roll and pitch (degrees, :func:`tilt_rotation`) at ``times_s``, linearly
     interpolated from a log: a CSV with the columns ``time_s``, ``roll_deg`` and
     ``pitch_deg``, its times on the frames' clock (the first frame at 0 s) and covering them."""
-    import csv
+    from wavealt._checks import read_number_columns
 
-    path = Path(path)
-    if not path.is_file():
-        msg = f"attitude file not found: {path}"
-        raise FileNotFoundError(msg)
-    cols = ("time_s", "roll_deg", "pitch_deg")
-    with path.open(newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        missing = [c for c in cols if c not in (reader.fieldnames or [])]
-        if missing:
-            msg = f"attitude file {path} needs a header with the columns {', '.join(cols)}"
-            raise ValueError(msg)
-        try:
-            rows = np.array([[float(row[c]) for c in cols] for row in reader], np.float64)
-        except (TypeError, ValueError):
-            msg = f"attitude file {path}: every time_s, roll_deg and pitch_deg must be a number"
-            raise ValueError(msg) from None
+    rows = read_number_columns(path, ("time_s", "roll_deg", "pitch_deg"), "attitude file")
     if rows.shape[0] < 1 or not np.all(np.isfinite(rows)):
         msg = f"attitude file {path}: needs at least one row of finite numbers"
         raise ValueError(msg)

@@ -7,7 +7,6 @@ in natural order (``frame_2`` before ``frame_10``) at ``--fps`` or at the times 
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -129,20 +128,9 @@ def nominal_rate(times_s: np.ndarray) -> float:
 def read_frame_times(path: Path | str, n_frames: int) -> np.ndarray:
     """Frame times from a CSV: a header with a ``time_s`` column, one row per frame in the
     folder's (natural) order; seconds, strictly increasing. Returned from the first frame."""
-    path = Path(path)
-    if not path.is_file():
-        msg = f"frame-times file not found: {path}"
-        raise FileNotFoundError(msg)
-    with path.open(newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        if reader.fieldnames is None or "time_s" not in reader.fieldnames:
-            msg = f"frame-times file {path} needs a header with a time_s column"
-            raise ValueError(msg)
-        try:
-            t = np.array([float(row["time_s"]) for row in reader], np.float64)
-        except (TypeError, ValueError):
-            msg = f"frame-times file {path}: every time_s must be a number"
-            raise ValueError(msg) from None
+    from wavealt._checks import read_number_columns
+
+    t = read_number_columns(path, ("time_s",), "frame-times file")[:, 0]
     if t.size != n_frames:
         msg = f"frame-times file {path} has {t.size} rows for {n_frames} frames"
         raise ValueError(msg)

@@ -173,3 +173,18 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     assert json.dumps(modes).count("prior") >= 5
     # levelled with the vehicle's attitude once heard (rounded to the view cache's 0.5 deg)
     assert (float(rows[-1]["roll_deg"]), float(rows[-1]["pitch_deg"])) == (5.5, -3.0)
+
+
+def test_a_pipe_on_standard_input_is_read_live(tmp_path) -> None:
+    sc, cfg = _clip(tmp_path / "clip.ts", frames=30)  # MPEG-TS, as a camera or ffmpeg pipes it
+    cmd = [sys.executable, "-m", "wavealt", "altitude", "--live", "-", "--live-format", "mpegts",
+           "--focal-px", str(cfg.focal_px), "--window", "10", "--step", "10", "--json",
+           "--velocity-mps", ",".join(map(str, sc.camera_velocity_mps))]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    with open(tmp_path / "clip.ts", "rb") as stdin:
+        proc = subprocess.run(cmd, stdin=stdin, capture_output=True, text=True, env=env,
+                              timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    assert summary["frames"] == 30 and summary["estimates"] == 3
+    assert summary["stopped_by"] == "end of stream"

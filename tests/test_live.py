@@ -186,5 +186,7 @@ def test_a_pipe_on_standard_input_is_read_live(tmp_path) -> None:
                               timeout=120)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
-    assert summary["frames"] == 30 and summary["estimates"] == 3
+    # a pipe is not paced: how many windows the estimator gets to depends on how fast the
+    # frames come, always from the newest ones
+    assert summary["frames"] == 30 and 1 <= summary["estimates"] <= 3
     assert summary["stopped_by"] == "end of stream"

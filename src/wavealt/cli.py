@@ -449,7 +449,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     import json
 
     from wavealt.altimetry.dispersion import DispersionAltimeter
-    from wavealt.camera import NadirView, focal_px_from_fov, pinhole, read_calibration
+    from wavealt.camera import NadirView, read_calibration
     from wavealt.dataset import check_output_folder
     from wavealt.live import LIVE_FILE, run_live
 
@@ -474,17 +474,16 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     link = None
     views: dict[tuple[int, int, float, float], Any] = {}
 
+    # the file is read once, before the stream opens (a bad one fails first)
+    lens = read_calibration(calibration) if calibration is not None else None
+
     def camera(w: int, h: int, roll: float, pitch: float) -> tuple[Any, float]:
         key = (w, h, roll, pitch)
         if key not in views:
-            if calibration is not None:
-                calib = read_calibration(calibration).for_size(w, h)
-            else:
-                f = focal_px if focal_px is not None else focal_px_from_fov(w, fov_deg)
-                calib = pinhole(w, h, f)
-            fixed = calibration is None and key[2:] == (0.0, 0.0)
-            views[key] = (None if fixed else NadirView(calib, w, h, roll_deg=key[2],
-                                                         pitch_deg=key[3]),
+            calib = _calibration(w, h, focal_px, fov_deg, lens)
+            fixed = lens is None and (roll, pitch) == (0.0, 0.0)
+            views[key] = (None if fixed else NadirView(calib, w, h, roll_deg=roll,
+                                                         pitch_deg=pitch),
                           calib.camera_matrix[0, 0])
         return views[key]
 
@@ -535,24 +534,32 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         click.echo(f"written: {out / LIVE_FILE}")
 
 
+def _calibration(w: int, h: int, focal_px: float | None, fov_deg: float | None,
+                 lens: Any) -> Any:
+    """The camera of ``w x h`` frames: the calibration ``lens`` (read from --calibration)
+    scaled to them, else a pinhole of --focal-px or --fov-deg."""
+    from wavealt.camera import focal_px_from_fov, pinhole
+
+    if lens is not None:
+        return lens.for_size(w, h)
+    return pinhole(w, h, focal_px if focal_px is not None else focal_px_from_fov(w, fov_deg))
+
+
 def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
                 calibration: Path | None, roll_deg: float | None, pitch_deg: float | None,
                 attitude: Path | None) -> tuple[np.ndarray, float, str | None]:
     """The frames the altimeter fits, their focal length, and a line saying how they were
     made: as read for a nadir pinhole; undistorted and levelled (``camera.NadirView``) for a
     calibration or an attitude."""
-    from wavealt.camera import (NadirView, focal_px_from_fov, pinhole, read_attitude,
-                                read_calibration)
+    from wavealt.camera import NadirView, read_attitude, read_calibration
 
     frames = clip.frames
-    t, h, w = frames.shape[:3]
-    if focal_px is None and fov_deg is not None:
-        focal_px = focal_px_from_fov(w, fov_deg)
+    h, w = frames.shape[1:3]
+    lens = read_calibration(calibration) if calibration is not None else None
+    calib = _calibration(w, h, focal_px, fov_deg, lens)
     tilted = attitude is not None or (roll_deg, pitch_deg) != (None, None)
-    if calibration is None and not tilted:
-        return frames, float(focal_px), None
-    calib = (read_calibration(calibration).for_size(w, h) if calibration is not None
-             else pinhole(w, h, focal_px))
+    if lens is None and not tilted:
+        return frames, float(calib.camera_matrix[0, 0]), None
     if attitude is not None:
         roll, pitch = read_attitude(attitude, clip.times_s)
         source = f"attitude from {attitude}"

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.video import GAP_TOLERANCE
+from wavealt.video import regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
@@ -134,11 +134,6 @@ class FrameReader(threading.Thread):
             self.new_frame.notify_all()
 
 
-def _regular(times: np.ndarray) -> bool:
-    d = np.diff(times)
-    return bool(d.size and np.all(d > 0) and np.all(np.abs(d / np.median(d) - 1) <= GAP_TOLERANCE))
-
-
 def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, Any]],
              window: int, step: int, fmt: str | None = None, duration_s: float | None = None,
              log: Path | None = None, on_estimate: Callable[[dict[str, Any]], Any] | None = None,
@@ -190,7 +185,9 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                 continue  # timed out waiting: check the stop conditions again
             seen = arrived
             times = np.array([it.time_s for it in items])
-            if len(items) < window or not _regular(times):
+            # the recorded-input rule: one run of evenly spaced frames (video.regular_runs)
+            if (len(items) < window or np.any(np.diff(times) <= 0)
+                    or len(regular_runs(times)[0]) != 1):
                 skipped += 1
                 continue
             fps = (len(times) - 1) / (times[-1] - times[0])

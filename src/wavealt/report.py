@@ -296,13 +296,10 @@ def build_report_markdown(out: Path, sc: ReproduceScale, stages: dict[str, Any],
     # run folders inside OUT are named relative to it (the report travels with OUT)
     evals = {k: {**e, "baseline_label": str(e.get("baseline_label", "")).replace(f"{out}/", "")}
              for k, e in evals.items()}
-    errors = {}
-    for name in evals:
-        path = out / "eval" / name / "predictions.csv"
-        if path.is_file():
-            from wavealt.evaluation import read_abs_errors
+    from wavealt.evaluation import read_abs_errors
 
-            errors[name] = read_abs_errors(path)
+    errors = {name: read_abs_errors(out / "eval" / name / "predictions.csv") for name in evals
+              if (out / "eval" / name / "predictions.csv").is_file()}
     L += verdict_paragraph(evals, errors)
     main = evals.get("cnn-clean")
     L += ["## Table 2 — CNN trained on clean, tested per condition (ours vs the paper)", ""]

@@ -96,10 +96,9 @@ def check_choice(name: str, value: Any, choices: Any) -> Any:
     return value
 
 
-def read_number_columns(path: Any, columns: tuple[str, ...], what: str) -> Any:
-    """The ``columns`` of a CSV file with a header, as a ``(rows, len(columns))`` float64
-    array; a missing file, header column or a cell that is not a number is a one-line
-    error naming ``what`` the file is (e.g. ``"attitude file"``)."""
+def read_csv_rows(path: Any, columns: tuple[str, ...], what: str) -> list[dict[str, str]]:
+    """The rows of a CSV file with a header that holds ``columns``; a missing file or column
+    is a one-line error naming ``what`` the file is (e.g. ``"attitude file"``)."""
     import csv
     from pathlib import Path
 
@@ -109,12 +108,21 @@ def read_number_columns(path: Any, columns: tuple[str, ...], what: str) -> Any:
         raise FileNotFoundError(msg)
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.DictReader(fh)
-        if any(c not in (reader.fieldnames or []) for c in columns):
-            msg = f"{what} {path} needs a header with the column(s) {', '.join(columns)}"
+        missing = [c for c in columns if c not in (reader.fieldnames or [])]
+        if missing:
+            msg = (f"{what} {path} needs a header with the column(s) {', '.join(columns)}; "
+                   f"missing: {', '.join(missing)}")
             raise ValueError(msg)
-        try:
-            return np.array([[float(row[c]) for c in columns] for row in reader],
-                            np.float64).reshape(-1, len(columns))
-        except (TypeError, ValueError):
-            msg = f"{what} {path}: every {', '.join(columns)} must be a number"
-            raise ValueError(msg) from None
+        return list(reader)
+
+
+def read_number_columns(path: Any, columns: tuple[str, ...], what: str) -> Any:
+    """The ``columns`` of a CSV file with a header (:func:`read_csv_rows`), as a ``(rows,
+    len(columns))`` float64 array; a cell that is not a number is a one-line error."""
+    rows = read_csv_rows(path, columns, what)
+    try:
+        return np.array([[float(row[c]) for c in columns] for row in rows],
+                        np.float64).reshape(-1, len(columns))
+    except (TypeError, ValueError):
+        msg = f"{what} {path}: every {', '.join(columns)} must be a number"
+        raise ValueError(msg) from None

@@ -30,7 +30,7 @@ import numpy as np
 from PIL import Image, UnidentifiedImageError
 
 from wavealt import __version__
-from wavealt._checks import check_frames
+from wavealt._checks import check_frames, read_csv_rows
 from wavealt.scenario import Scenario, SimConfig
 
 FORMAT = "wavealt-dataset"
@@ -209,22 +209,12 @@ def manifest_text(records: Sequence[SequenceRecord]) -> str:
 
 
 def read_manifest(path: Path) -> list[SequenceRecord]:
-    path = Path(path)
-    if not path.is_file():
-        msg = f"manifest not found: {path}"
-        raise FileNotFoundError(msg)
-    with path.open(newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        missing = [c for c in MANIFEST_COLUMNS if c not in (reader.fieldnames or [])]
-        if missing:
-            msg = f"manifest {path} lacks column(s): {', '.join(missing)}"
-            raise ValueError(msg)
-        out = []
-        for row in reader:
-            kw: dict[str, Any] = {}
-            for c in MANIFEST_COLUMNS[2:]:
-                kw[c] = int(row[c]) if c in ("frames", "seed") else float(row[c])
-            out.append(SequenceRecord(row["sequence_id"], row["split"], Scenario(**kw)))
+    out = []
+    for row in read_csv_rows(path, MANIFEST_COLUMNS, "manifest"):
+        kw: dict[str, Any] = {}
+        for c in MANIFEST_COLUMNS[2:]:
+            kw[c] = int(row[c]) if c in ("frames", "seed") else float(row[c])
+        out.append(SequenceRecord(row["sequence_id"], row["split"], Scenario(**kw)))
     return out
 
 

@@ -1,0 +1,95 @@
+"""Physics-based altimeter: fit the wave dispersion relation to a short frame sequence.
+
+A nadir pinhole camera at ``altitude_m`` images a sea wave of physical wavenumber ``k``
+(rad/m) at pixel wavenumber ``kappa = k * altitude_m / focal_px`` (rad/px).  Deep-water
+waves obey ``omega^2 = g k + (sigma/rho) k^3`` (Lamb 1932, §266; the capillary term matters
+only below a few centimetres), and water moving at ``w`` relative to the camera Doppler
+shifts every mode, so the phase of mode ``kappa`` advances per frame by
+
+    psi(kappa) = ( s * omega(|kappa| focal_px / altitude_m) + kappa . u ) / fps,    (1)
+
+with ``s = +1`` for a wave travelling along ``+kappa`` and ``-1`` against it, and
+``u = w focal_px / altitude_m`` the water's image velocity in px/s.  In the gravity regime
+``omega = a sqrt(|kappa|)`` with ``a^2 = g focal_px / altitude_m`` (Spencer, Shah & Guha,
+IEEE TIP 2006, recovered image scale this way).
+
+The estimator tabulates, for every spatial mode of the frame's four corner tiles (where the
+image is closest to linear in slope), the share of its temporal energy that one travelling
+wave explains as a function of the phase step per frame (a whitened, sharpened periodogram
+of the mode's complex amplitudes over the clip), and scores a candidate
+``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts:
+
+* **exact** (the camera's velocity over the water known, e.g. from satellite navigation):
+  a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;
+* **blind** (velocity unknown): a per-mode phase-step fit (cross-spectra of consecutive
+  frames, Gauss–Newton with Tukey weights on ``(log altitude, u)``) gives a start, and the
+  altitude is the most prominent peak of the score's *profile* over log altitude, the
+  velocity re-fitted at every altitude.  The phase-step fit alone is exact on imagery
+  linear in slope but biased on rendered frames, whose non-linear optics (Fresnel, glint)
+  add difference-frequency products that move slower than the waves; the profile needs a
+  clip long enough to resolve them (about 1 s).
+
+With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehicle's
+navigation, the water's current unknown) exact fits at velocities spread over the prior
+propagate its uncertainty into the altitude's.
+
+Every result carries a trust decision (:meth:`DispersionAltimeter._judge`): the shell's
+peak must stand out of what random phase steps would give (significance), be prominent in
+the altitude scan (quality), have a 3-sigma interval within 10 % of the altitude, and lie
+inside the altitude range searched.  The uncertainty is the spread of the peak over bands
+of wavenumber (the true shell gives one altitude at every wavenumber; the optics' products
+do not) plus a systematic floor; an untrusted window's interval spans the whole range.
+Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or
+removed with the colour (chroma) signal.
+
+References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
+image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;
+Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with the shell;
+Spencer, Shah & Guha (IEEE TIP 2006), image scale from dispersion.
+"""
+
+# The names of the module this package was (importers, tests and monkeypatches use them).
+from wavealt.altimetry.dispersion.altimeter import (  # noqa: F401
+    DispersionAltimeter,
+    _one_blas_thread,
+    estimate_altitude,
+)
+from wavealt.altimetry.dispersion.constants import (  # noqa: F401
+    CHROMA_CHECK_QUALITY,
+    DEGLINTS,
+    DISPERSIONS,
+    EDGE_FACTOR,
+    FULL_CLIP_FRAMES,
+    MAX_TRUSTED_3SIGMA,
+    MIN_FRAMES,
+    MIN_SIGNIFICANCE,
+    PHASE_STEP_CHI2,
+    SD_FLOOR_LOG,
+    SIGNALS,
+    TILES,
+    TRUSTED_QUALITY,
+)
+from wavealt.altimetry.dispersion.result import DispersionResult
+from wavealt.altimetry.dispersion.search import (  # noqa: F401
+    _most_prominent,
+    _parabolic_peak,
+    peak_prominences,
+)
+from wavealt.altimetry.dispersion.signal import (  # noqa: F401
+    _clip_outliers,
+    _has_texture,
+    _robust_level,
+    _to_gray,
+    deglint,
+)
+from wavealt.altimetry.dispersion.spectra import (  # noqa: F401
+    _corners,
+    _fast_len,
+    _hann2d,
+    _sharpen,
+    _windowed_modes,
+    _wrap,
+)
+
+__all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
+           "estimate_altitude"]

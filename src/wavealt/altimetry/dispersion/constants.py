@@ -1,0 +1,70 @@
+"""Choices and tuning constants of the dispersion altimeter, with where the values come from."""
+
+DISPERSIONS = ("gravity", "gravity-capillary")
+DEGLINTS = ("none", "clip", "median")
+TILES = ("quadrants", "full")
+SIGNALS = ("auto", "chroma", "luma")
+#: Systematic floor of the fit's relative uncertainty (log altitude), for clips of at least
+#: ``FULL_CLIP_FRAMES`` frames.
+SD_FLOOR_LOG = 0.01
+#: Shorter clips get the floor ``SD_FLOOR_LOG (FULL_CLIP_FRAMES / T)^3`` (2.9 % at 7 frames,
+#: 8 % at 5, 37 % at 3): with fewer frames the optics' products and the shell share one
+#: periodogram bin.  Paper renderer at 30 fps, seed 11, aided, the first T frames of 100
+#: windows: 3-sigma coverage at T = 3 / 5 / 7 rose from 0.60-0.75 / 0.79-0.87 / 0.87-0.93 to
+#: 1.00 / 1.00 / 0.99-1.00, and no window of 3 or 5 frames is trusted any more (before, 16-31
+#: and 6-8 were trusted with errors above 10 %).
+FULL_CLIP_FRAMES = 10
+#: Quality below which an estimate says it is not to be trusted.
+TRUSTED_QUALITY = 0.3
+#: Largest phase-step misfit (chi^2 per mode against the coherence-predicted phase noise)
+#: of a blind phase-step fit that may stand in for an indecisive profile: 0.6-2.2 on frames
+#: linear in slope (8 windows), 2.6-10 on the paper renderer's (24 windows of 10 and 30
+#: frames).
+PHASE_STEP_CHI2 = 2.0
+MIN_FRAMES = 3
+#: Largest 3-sigma relative uncertainty of a trusted estimate: the contract is that no
+#: trusted window is off by more than 10 %, so one whose own 3-sigma interval is wider
+#: cannot be trusted.
+MAX_TRUSTED_3SIGMA = 0.10
+#: Least significance of the shell's peak: its score above the mean that random phase
+#: steps would give, in units of that score's standard deviation (each mode's share
+#: averaged over all phase steps; :meth:`DispersionAltimeter._result`).  Uniform RGB noise,
+#: 12 frames of 64-256 px, exact and blind (18 windows): 4.6-19, the most prominent of the
+#: many candidate peaks; rendered sea windows that pass the other tests: 49-145.
+MIN_SIGNIFICANCE = 30.0
+#: An estimate within this factor of an end of ``altitude_range_m`` is not trusted: the
+#: shell's peak may lie beyond the end, and the fit is pinned to it.
+EDGE_FACTOR = 1.15
+
+
+#: Quality below which an aided chroma fit (``signal="auto"``) is checked against the
+#: luminance's (a blind one: below ``TRUSTED_QUALITY``).
+#: Paper renderer, 296 windows of seeds 5, 7 and 11 that chose the chroma: 90 % grade
+#: 0.86-0.90; the realistic preset's clean chroma, whose colour does not all follow the
+#: waves, graded 0.74-0.80 while 23-59 % off (the luminance: 0.88-0.90, within 0.4 %).
+CHROMA_CHECK_QUALITY = 0.85
+
+
+#: Tukey scale of the blind phase-step fit's residuals, rad: beyond it a mode is an outlier
+#: (harmonic, glint, noise) (:meth:`DispersionAltimeter._refine`).
+TUKEY_C_RAD = 0.6
+#: The standard deviation of normally distributed values per median absolute deviation.
+MAD_TO_SD = 1.4826
+#: The aided altitude scan reaches past ``altitude_range_m`` (x1.5 below its low end, x4
+#: above its high end, same step) so that a peak near an end of the range has the fall on
+#: both of its sides measured: at high altitudes the shell's peak is broad (the waves move
+#: little in a short clip) (:meth:`DispersionAltimeter._fit_aided`).
+AIDED_SCAN_BELOW = 1.5
+AIDED_SCAN_ABOVE = 4.0
+#: The aided fit's shrunk scan pulls the weighted scan toward the plain scan's median by this
+#: fraction of the modes: the weighted mean of a candidate at which few modes turn rests on
+#: few modes, and on small frames (128 px, 1-5 m) made spurious peaks at 5-15 times the
+#: altitude (:meth:`DispersionAltimeter._fit_aided`).
+AIDED_SHRINK_FRACTION = 0.1
+#: The blind profile spans ``1 / BLIND_PROFILE_BELOW`` to ``exp(BLIND_PROFILE_ABOVE_LOG)``
+#: (x1/4 .. x1.5) of the phase-step start's altitude: that start's bias is mostly upward,
+#: but one two to three times too high is common on rendered frames; step in log altitude
+#: (:meth:`DispersionAltimeter._fit_blind`).
+BLIND_PROFILE_BELOW = 4.0
+BLIND_PROFILE_ABOVE_LOG = 0.4
+BLIND_PROFILE_STEP_LOG = 0.05

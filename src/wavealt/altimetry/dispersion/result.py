@@ -1,0 +1,65 @@
+"""The dispersion altimeter's result: altitude, uncertainty, velocity and trust."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+
+@dataclass
+class DispersionResult:
+    """The outcome of one dispersion fit.
+
+    Attributes
+    ----------
+    altitude_m : float
+        Estimated camera altitude above the mean sea surface, metres.
+    altitude_std_m : float
+        One-sigma uncertainty of ``altitude_m``, metres (large when the fit is poor).
+    camera_velocity_mps : tuple of float
+        ``(vx, vy)``: the camera's velocity relative to the water surface along image +x
+        (columns) and +y (rows), m/s; the same convention as the ``velocity_mps`` that
+        :meth:`DispersionAltimeter.estimate` takes.  A camera hovering over water that
+        drifts at ``c`` has ``-c``.
+    quality : float
+        In [0, 1]: relative prominence of the wave shell's peak, discounted for a large
+        relative uncertainty.
+    trusted : bool
+        Whether the estimate may be used (an autopilot link sends an untrusted one as a
+        dropout, never as a reading).
+    reason : str or None
+        Why it is not trusted (None when trusted).
+    mode : {"blind", "prior", "exact"}
+        Velocity unknown; a prior on it (``velocity_sigma_mps > 0``); known exactly.
+    frames : int
+        Number of frames used.
+    n_modes : int
+        Number of spatial modes in the final fit.
+    signal : str
+        The scalar sequence fitted (``"luma"`` or ``"chroma"``) and the tiles it was
+        transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``.
+    """
+
+    altitude_m: float
+    altitude_std_m: float
+    camera_velocity_mps: tuple[float, float]
+    quality: float
+    trusted: bool
+    reason: str | None
+    mode: str
+    frames: int
+    n_modes: int
+    signal: str = ""
+    #: How far the shell's peak stands above the score of random phase steps, in standard
+    #: deviations of it (``MIN_SIGNIFICANCE``); internal to the trust decision.
+    significance: float = field(default=0.0, repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able dict (floats, ints, a two-item list for the velocity)."""
+        d = asdict(self)
+        d["camera_velocity_mps"] = [float(v) for v in self.camera_velocity_mps]
+        for key in ("altitude_m", "altitude_std_m", "quality"):
+            d[key] = float(d[key])
+        d["trusted"] = bool(self.trusted)
+        del d["significance"]
+        return d

@@ -1,0 +1,126 @@
+"""Signal preparation: luminance with glint spikes suppressed, or the colour (chroma) signal,
+from which white content (glint, saturation, foam) drops out."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wavealt._checks import check_choice
+from wavealt.altimetry.dispersion.constants import DEGLINTS, MAD_TO_SD
+
+
+def _to_gray(frames: np.ndarray) -> np.ndarray:
+    """``(T, H, W[, 3])`` float or uint8 -> ``(T, H, W)`` float32 luminance-like mean."""
+    scale = np.float32(1.0 / 255.0 if frames.dtype == np.uint8 else 1.0)
+    if frames.ndim == 4:
+        return (frames @ np.full(3, scale / 3.0, dtype=np.float32)).astype(np.float32, copy=False)
+    return frames.astype(np.float32) * scale
+
+
+def _has_texture(arr: np.ndarray) -> bool:
+    """Whether ``arr`` holds more than one value (beyond float rounding)."""
+    return float(np.ptp(arr)) > (0 if arr.dtype == np.uint8 else 1e-6)
+
+
+def _robust_level(x: np.ndarray, n_sample: int) -> tuple[float, float]:
+    """Median and MAD-based standard deviation (``1.4826 * MAD``) of ``x``, from a fixed
+    subsample of about ``n_sample`` values (a full median of a 10-frame 256^2 clip costs
+    more than the rest of the estimate)."""
+    sample = x.ravel()[:: max(1, x.size // n_sample)].astype(np.float32)
+    k = sample.size // 2  # the upper median: a partition, several times cheaper than np.median
+    med = float(np.partition(sample, k)[k])
+    dev = np.abs(sample - np.float32(med), out=sample)
+    return med, float(np.partition(dev, k)[k]) * MAD_TO_SD
+
+
+def _clip_outliers(signal: np.ndarray, n_sigma: float,
+                   level: tuple[float, float] | None = None) -> np.ndarray:
+    """Clip ``signal`` to its robust ``median +- n_sigma`` spread, both ways, in place
+    (``level``: that median and spread, when already measured).
+
+    In the chroma signal the water's colour varies smoothly with the waves; whitecaps (white
+    foam carried along by the water, not dispersive) and saturated glint (all channels at
+    1) are far outliers of it.  Clipping them keeps their outline from posing as waves.
+    Measured on 30 paper-renderer scenes (aided, 256 px): relative MAE clean 4.2 -> 3.8 %,
+    glinty 14.8 -> 4.4 %; on 16 realistic clean scenes, confident (quality > 0.5) errors
+    above 10 % fell from 5 to 1.
+    """
+    med, mad = _robust_level(signal, 4_096) if level is None else level
+    if mad <= 0:
+        return signal
+    return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad, out=signal)
+
+
+def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0,
+            out: np.ndarray | None = None) -> np.ndarray:
+    """Suppress glint spikes in ``(T, H, W)`` gray frames before the spectral analysis.
+
+    ``"clip"`` limits every pixel to ``median + clip_sigma * 1.4826 * MAD`` of the whole
+    sequence (glint is sparse, bright and one-sided; the wave texture is not).  ``"median"``
+    replaces each pixel by ``min(value, temporal median + clip_sigma * MAD)`` per pixel.
+    ``"none"`` returns the input.  Both are invariant to a brightness gain and offset.
+    ``out``: where to write the result (``gray`` itself is allowed); default a new array.
+    """
+    check_choice("deglint", method, DEGLINTS)
+    if method == "none":
+        return gray
+    if method == "clip":
+        med, mad = _robust_level(gray, 16_384)
+        return np.minimum(gray, np.float32(med + clip_sigma * mad), out=out)
+    med_t = np.median(gray, axis=0, keepdims=True)
+    mad = float(np.median(np.abs(gray - med_t))) * MAD_TO_SD
+    return np.minimum(gray, med_t + clip_sigma * mad, out=out)
+
+
+class _Signal:
+    """Signal preparation of :class:`DispersionAltimeter`: the scalar sequence fitted,
+    luminance with glint clipped or chroma (uses ``signal``, ``deglint``, ``clip_sigma``)."""
+
+    def _luma(self, arr: np.ndarray) -> np.ndarray:
+        """The luminance of ``arr`` with glint spikes suppressed (:func:`deglint`), float32."""
+        gray = _to_gray(arr)  # a new array: deglinted in place
+        return deglint(gray, method=self.deglint, clip_sigma=self.clip_sigma, out=gray)
+
+    def _signal(self, arr: np.ndarray) -> tuple[np.ndarray, str]:
+        """The scalar image sequence the spectra are taken of first, and which one it is:
+        the chroma with ``signal="chroma"`` on colour frames, else the luminance with glint
+        spikes clipped (:func:`deglint`).  ``"auto"`` decides per clip (:meth:`_estimate`).
+        """
+        if self.signal == "chroma" and arr.ndim == 4:
+            return self._chroma(arr, self._colour(arr)[0]), "chroma"
+        return self._luma(arr), "luma"
+
+    @staticmethod
+    def _colour(arr: np.ndarray) -> tuple[np.ndarray, float]:
+        """Chroma weights of ``(T, H, W, 3)`` frames and the share of the luminance's
+        variance the chroma explains (R^2), both from a fixed subsample of pixels.
+
+        Sun glint is nearly white: it adds about equally to R, G and B (paper eq. (3) adds it
+        exactly so), while the wave texture (reflected sky against water colour) is coloured.
+        The chroma removes the grey component of every pixel and keeps the first principal
+        component of what is left: glint drops out, the texture stays, and saturated
+        (all-white) pixels become constant.  The weights ``w`` give it as ``frames @ w``
+        (``(x - mean_c(x)) . v == x . (v - mean(v))``), scaled for uint8 input.
+        """
+        x = arr.reshape(-1, 3)
+        sample = x[:: max(1, x.shape[0] // 4_096)].astype(np.float64)
+        if arr.dtype == np.uint8:
+            sample /= 255.0
+        y = sample - sample.mean(axis=1, keepdims=True)
+        y -= y.mean(axis=0)
+        _, vecs = np.linalg.eigh(y.T @ y)
+        w = vecs[:, -1] - vecs[:, -1].mean()
+        chroma, luma = sample @ w, sample.mean(axis=1)
+        r2 = 1.0
+        if chroma.std() > 1e-9 and luma.std() > 1e-9:
+            r2 = float(np.corrcoef(chroma, luma)[0, 1] ** 2)
+        scale = 1.0 / 255.0 if arr.dtype == np.uint8 else 1.0
+        return (w * scale).astype(np.float32), r2
+
+    def _chroma(self, arr: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """The chroma signal ``arr @ weights`` (:meth:`_colour`), its far outliers (foam,
+        saturated glint edges) clipped at levels measured on every 6th pixel both ways."""
+        med, mad = _robust_level((arr[:, ::6, ::6] @ weights).astype(np.float32, copy=False),
+                                 4_096)
+        chroma = (arr @ weights).astype(np.float32, copy=False)
+        return _clip_outliers(chroma, self.clip_sigma, (med, mad))

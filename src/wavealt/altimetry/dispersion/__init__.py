@@ -63,7 +63,6 @@ from wavealt.altimetry.dispersion.constants import (  # noqa: F401
     MAX_TRUSTED_3SIGMA,
     MIN_FRAMES,
     MIN_SIGNIFICANCE,
-    PHASE_STEP_CHI2,
     SD_FLOOR_LOG,
     SIGNALS,
     TILES,

@@ -272,7 +272,8 @@ class _Search:
         and a slower shell plus more drift fits them (+10 to +40 % in altitude on the paper
         renderer).  The periodogram separates the shell from those products once the clip
         resolves them (about 1 s); along the profile, a drift that trades against altitude
-        leaves a flat profile, which the quality reports.  The profile follows the ridge
+        leaves a flat profile, which the quality and the mode groups' spread along it report
+        (:meth:`_result`).  The profile follows the ridge
         from the phase-step fit ``(logh0, u0)`` (``u0`` in the periodogram's convention)
         over ``x1/4 .. x1.5`` of its altitude (its bias is mostly upward, but a start two to
         three times too high is common on rendered frames); the most prominent
@@ -302,8 +303,10 @@ class _Search:
         mean = vals.mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
         u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
+        # every mode along the whole ridge: the mode groups' peaks there give the uncertainty
+        ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
         return {"logh": logh, "u": u, "scan": scan, "interior": interior,
-                "prominence": prominence, "local": local, "vals": vals}
+                "prominence": prominence, "local": local, "vals": vals, "ridge": (grid, ridge)}
 
 
 def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

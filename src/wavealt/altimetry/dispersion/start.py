@@ -51,7 +51,7 @@ class _Start:
             sel = np.flatnonzero(kappa <= band)
             if sel.size > 160:
                 sel = sel[np.argsort(-w0[sel] * m["energy"][sel])[:160]]
-            n = max(2, int(math.ceil(half / step)))
+            n = max(2, math.ceil(half / step))
             g = np.arange(-n, n + 1) * step
             gx, gy = np.meshgrid(center[0] + g, center[1] + g, indexing="ij")
             ring = ring_all[sel] - ring_all[sel].min()
@@ -154,11 +154,4 @@ class _Start:
             cand = self._refine(m, fps, focal_px, alt0, u0)
             if cand and (not fit or cand["cost"] < fit["cost"]):
                 fit = cand
-        if fit:
-            # phase residuals of the inlier modes relative to the noise their coherence
-            # predicts: ~1 when the steps follow one shell (imagery linear in slope), 3-10 on
-            # rendered frames, whose non-linear products bias the steps
-            use, r, tw = fit["use"], fit["r"], fit["tw"]
-            wn = (m["weight"] * tw)[use]
-            fit["chi2"] = float(np.sum(wn * r[use] ** 2) / max(np.sum(tw[use] > 0) - 3, 1))
         return fit

@@ -9,15 +9,18 @@ from typing import Any
 import numpy as np
 
 from wavealt.altimetry.dispersion.constants import (
+    BLIND_SD_FLOOR_LOG,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
     MAX_TRUSTED_3SIGMA,
     MIN_SIGNIFICANCE,
+    PROFILE_PROMINENCE,
+    SCAN_PROMINENCE,
     SD_FLOOR_LOG,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
-from wavealt.altimetry.dispersion.search import _parabolic_peak
+from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak
 
 
 class _Trust:
@@ -33,32 +36,54 @@ class _Trust:
                                 mode="blind",
                                 frames=int(frames), n_modes=0)
 
-    def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
-                focal_px: float) -> DispersionResult:
-        """Uncertainty from the spread of the peak over groups of modes (the velocity held,
-        or along the ridge when it is free); quality from the peak's prominence in the
-        altitude scan or profile."""
-        logh, u = fit["logh"], fit["u"]
-        vals, local = fit["vals"], fit["local"]
-        n = vals.shape[1]
-        # groups are bands of wavenumber: the shell of the true altitude is the same at every
-        # wavenumber, while the optics' products (sum frequencies faster than the shell,
-        # difference frequencies slower) pose as altitudes that change with it
+    def _group_labels(self, p: dict[str, np.ndarray], n: int) -> np.ndarray:
+        """Mode group of each of the ``n`` modes: ``n_groups`` bands of wavenumber.  The
+        shell of the true altitude is the same at every wavenumber, while the optics'
+        products (sum frequencies faster than the shell, difference frequencies slower) pose
+        as altitudes that change with it."""
         labels = np.empty(n, dtype=np.int64)
         labels[np.argsort(p["kappa"], kind="stable")] = np.arange(n) * self.n_groups // n
-        # per-group mean curves over the fine grid from one pass over the (grid, mode) matrix
-        sums = np.stack([np.bincount(labels, weights=row, minlength=self.n_groups)
+        return labels
+
+    def _group_curves(self, labels: np.ndarray, vals: np.ndarray) -> np.ndarray:
+        """Per-group sums of ``vals`` ``(grid, modes)``: ``(n_groups, grid)``."""
+        return np.stack([np.bincount(labels, weights=row, minlength=self.n_groups)
                          for row in vals], axis=1)
-        ests = np.array([_parabolic_peak(local, row) for row in sums])
+
+    def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
+                focal_px: float) -> DispersionResult:
+        """Uncertainty from the spread of the peak over groups of modes, quality from the
+        peak's prominence in the altitude scan (aided) or profile (blind).
+
+        Aided, the groups' peaks are taken on the fine grid around the estimate.  Blind
+        (``fit["ridge"]``), they are taken along the whole profile, the velocity re-fitted at
+        every altitude: along the ridge drift trades against altitude, and a group whose
+        profile is flat puts its peak far off, so the spread measures how well the clip pins
+        the altitude (on the fine grid alone it was 2-20 times too small).
+        """
+        logh, u = fit["logh"], fit["u"]
+        vals = fit["vals"]
+        n = vals.shape[1]
+        labels = self._group_labels(p, n)
+        profile = "ridge" in fit
+        if profile:
+            grid, ridge = fit["ridge"]
+            sums = self._group_curves(labels, ridge)
+            ests = []
+            for row in sums:
+                k = _most_prominent(row, grid, -np.inf, np.inf, near=logh, within=0.5)[0]
+                lo_k = min(max(k - 1, 0), grid.size - 3)
+                ests.append(_parabolic_peak(grid[lo_k:lo_k + 3], row[lo_k:lo_k + 3]))
+            ests = np.array(ests)
+        else:
+            sums = self._group_curves(labels, vals)
+            ests = np.array([_parabolic_peak(fit["local"], row) for row in sums])
         # statistical spread of the mode groups, plus a systematic floor: the bias the finite
         # clip and the optics' non-linearity leave (0.2-0.4 % even on an ideal camera, a few
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
-        floor = SD_FLOOR_LOG * max(1.0, FULL_CLIP_FRAMES / t) ** 3
+        floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
+                 * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), floor)
-        # The wave shell of a real sea stands out of the altitude scan as a prominent peak
-        # (prominence 0.45-0.95 of its height on rendered clean and glinty frames, 1-15 m);
-        # textures without dispersion (noise, frozen or carried patterns) make at most small
-        # bumps on a scan that rises toward the edge of the range.
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
         if "_null" not in p:  # one periodogram serves several fits (prior mode: nine)
@@ -67,12 +92,19 @@ class _Trust:
                           float(np.sqrt(np.sum(q_all.var(axis=1)))) / q_all.shape[0])
         null_mean, null_sd = p["_null"]
         z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_sd, 1e-30)
+        # The wave shell of a real sea stands out of the scan as a prominent peak; textures
+        # without dispersion (noise, frozen or carried patterns) make at most small bumps on
+        # a scan that rises toward the edge of the range.
         rel_prom = fit["prominence"] / max(float(np.max(fit["scan"])), 1e-30)
-        q = float(np.clip((rel_prom - 0.1) / 0.3, 0.0, 1.0))
+        start, span = PROFILE_PROMINENCE if profile else SCAN_PROMINENCE
+        q = float(np.clip((rel_prom - start) / span, 0.0, 1.0))
         if not fit["interior"]:
             q = 0.0  # the most prominent peak lies outside the altitude range, or none
         q *= float(np.clip(1.0 - sd_logh / 0.1, 0.0, 1.0))
-        sd_logh = sd_logh + (1.0 - q) ** 3  # an untrusted fit must not look precise
+        if not profile:
+            # the aided scan's fine-grid spread does not see a second peak: an ill-graded
+            # fit must not look precise
+            sd_logh = sd_logh + (1.0 - q) ** 3
         alt = math.exp(logh)
         # u is the camera's image velocity over the water (px/frame)
         vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
@@ -81,22 +113,32 @@ class _Trust:
                                 mode="blind", frames=int(t), n_modes=int(n),
                                 significance=z)
 
+    def _distrust(self, res: DispersionResult) -> str | None:
+        """Why a finished fit may not be trusted, None when it may (:meth:`_judge`)."""
+        lo, hi = self.altitude_range_m
+        rel3 = 3.0 * res.altitude_std_m / res.altitude_m
+        if res.significance < MIN_SIGNIFICANCE:
+            return res.reason or "no wave signal above the noise"
+        if res.quality < TRUSTED_QUALITY:
+            return res.reason or "no prominent wave-shell peak"
+        if rel3 > MAX_TRUSTED_3SIGMA:
+            return f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
+        if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
+            return "at the edge of the altitude range searched"
+        return res.reason
+
+    def _standing(self, res: DispersionResult) -> tuple[bool, bool, float]:
+        """Order of two fits of one window: trusted first, then significant, then graded."""
+        return (self._distrust(res) is None, res.significance >= MIN_SIGNIFICANCE,
+                res.quality)
+
     def _judge(self, res: DispersionResult) -> DispersionResult:
         """The trust decision of a finished fit, in place: a shell peak significant against
         random phase steps (``MIN_SIGNIFICANCE``) and prominent (``TRUSTED_QUALITY``), a
         3-sigma interval within ``MAX_TRUSTED_3SIGMA`` of the altitude, and an estimate
         inside the altitude range (not within ``EDGE_FACTOR`` of an end of it)."""
         lo, hi = self.altitude_range_m
-        rel3 = 3.0 * res.altitude_std_m / res.altitude_m
-        reason = res.reason
-        if res.significance < MIN_SIGNIFICANCE:
-            reason = reason or "no wave signal above the noise"
-        elif res.quality < TRUSTED_QUALITY:
-            reason = reason or "no prominent wave-shell peak"
-        elif rel3 > MAX_TRUSTED_3SIGMA:
-            reason = f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
-        elif not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
-            reason = "at the edge of the altitude range searched"
+        reason = self._distrust(res)
         res.trusted = reason is None
         res.reason = reason
         if not res.trusted:

@@ -11,7 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wavealt.altimetry.dispersion import MAX_TRUSTED_3SIGMA, DispersionAltimeter
+from wavealt.altimetry.dispersion import (
+    MAX_TRUSTED_3SIGMA,
+    DispersionAltimeter,
+    DispersionResult,
+)
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
 
@@ -158,3 +162,21 @@ def test_bad_prior_arguments_are_refused() -> None:
         est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=(1.0,))
     with pytest.raises(ValueError, match="velocity_mps must be two numbers"):
         est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=1.0)
+
+
+def test_of_two_fits_of_a_window_the_one_that_passes_the_trust_tests_is_kept() -> None:
+    """The chroma/luminance choice: a higher grade does not outrank a failed trust test."""
+    est = DispersionAltimeter()
+
+    def fit(quality: float, significance: float, rel_sd: float = 0.01) -> DispersionResult:
+        return DispersionResult(altitude_m=5.0, altitude_std_m=5.0 * rel_sd,
+                                camera_velocity_mps=(0.0, 0.0), quality=quality, trusted=False,
+                                reason=None, mode="blind", frames=30, n_modes=100,
+                                significance=significance)
+
+    trusted = fit(0.5, 100.0)
+    assert est._distrust(trusted) is None
+    assert est._standing(trusted) > est._standing(fit(0.9, 10.0))  # not significant
+    assert est._standing(trusted) > est._standing(fit(0.9, 100.0, rel_sd=0.05))  # too wide
+    assert est._standing(fit(0.2, 100.0)) > est._standing(fit(0.9, 10.0))
+    assert "3-sigma" in est._distrust(fit(0.9, 100.0, rel_sd=0.05))

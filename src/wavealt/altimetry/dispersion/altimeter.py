@@ -81,8 +81,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Trust):
         chroma, from which white content (glint, saturation, foam) drops out.  ``"auto"``
         (the default) fits the chroma of colour frames whose colour explains less than
         ``glint_r2`` of the luminance's variance (white glint dominates the luminance), and
-        the luminance too where that fit grades below ``CHROMA_CHECK_QUALITY`` (keeping the
-        better) or the colour explains more.  Paper renderer, 10 frames, aided, 2 x 100
+        the luminance too where that fit fails a trust test (or, velocity known, grades
+        below ``CHROMA_CHECK_QUALITY``), keeping the fit that passes more of the tests; or
+        the luminance alone where the colour explains more.  Paper renderer, 10 frames, aided, 2 x 100
         scenes (seeds 7 and 11), relative MAE glinty 3.25 / 2.38 % with the luminance
         alone, 1.46 / 1.78 % auto (before the corner tiles); clean unchanged.  The realistic
         preset's chroma carries colour content that does not follow the waves (chroma
@@ -244,21 +245,20 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Trust):
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
                 # The colour explains little of the luminance: white content (glint) that the
-                # luminance's clip leaves in.  The chroma is free of it; a well-graded chroma
-                # fit stands, else the luminance's is tried and the better kept (the realistic
-                # preset's chroma holds colour content that does not follow the waves).
+                # luminance's clip leaves in.  The chroma is free of it; a chroma fit that
+                # passes every trust test stands (an exact one must also grade at least
+                # CHROMA_CHECK_QUALITY: the realistic preset's chroma holds colour content that
+                # does not follow the waves).  Else the luminance's fit is tried and the one
+                # that passes more of the tests (then the better graded) kept: a chroma fit
+                # graded 0.85-0.86 below the significance bar read 0.5 m for 3.7 m (realistic
+                # preset, tuning seed 101, clean).  Blind fits grade lower, their profile being
+                # broader, so they are not held to 0.85: that fitted both signals on most
+                # 30-frame glinty windows, 0.54 -> 1.2 s each, for no gain (1.34 -> 1.40 %).
                 res = self._fit_signal(self._chroma(arr, weights), "chroma", fps, focal_px,
                                        prior)
-                # (blind fits grade lower, their profile being broader: checked only when
-                # untrusted; checking them at 0.85 fitted both on most 30-frame glinty windows,
-                # 0.54 -> 1.2 s each, for no gain: 1.34 -> 1.40 %)
-                # A chroma fit that fails any trust test is not kept on its grade alone: the
-                # luminance's is tried, and the fit that passes more of the tests (then the
-                # better graded) kept.  Realistic preset, tuning seed 101, clean: chroma fits
-                # graded 0.85-0.86 below the significance bar read 0.5 m for 3.7 m.
-                check = (CHROMA_CHECK_QUALITY if prior is not None and prior[2] == 0
-                         else TRUSTED_QUALITY)
-                if res.quality >= check and self._distrust(res) is None:
+                exact = prior is not None and prior[2] == 0
+                if (self._distrust(res) is None
+                        and (not exact or res.quality >= CHROMA_CHECK_QUALITY)):
                     return res
                 alt = self._fit_signal(self._luma(arr), "luma", fps, focal_px, prior)
                 return alt if self._standing(alt) >= self._standing(res) else res

@@ -32,6 +32,10 @@ PROFILE_PROMINENCE = (0.02, 0.1)
 #: groups share and their spread does not show.  At 0.025 every trusted window of seed 101
 #: (30 and 15 frames) lay within its 3-sigma interval; at 0.02, 92 % of the clean ones.
 BLIND_SD_FLOOR_LOG = 0.025
+#: A mode group's own peak along the blind profile is looked for within this distance, in
+#: log altitude, of the estimate (x0.61 .. x1.65); a group with no peak there counts at its
+#: highest point, which widens the spread (:meth:`DispersionAltimeter._result`).
+GROUP_PEAK_WITHIN_LOG = 0.5
 MIN_FRAMES = 3
 #: Largest 3-sigma relative uncertainty of a trusted estimate: the contract is that no
 #: trusted window is off by more than 10 %, so one whose own 3-sigma interval is wider

@@ -12,6 +12,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_SD_FLOOR_LOG,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
+    GROUP_PEAK_WITHIN_LOG,
     MAX_TRUSTED_3SIGMA,
     MIN_SIGNIFICANCE,
     PROFILE_PROMINENCE,
@@ -71,7 +72,8 @@ class _Trust:
             sums = self._group_curves(labels, ridge)
             ests = []
             for row in sums:
-                k = _most_prominent(row, grid, -np.inf, np.inf, near=logh, within=0.5)[0]
+                k = _most_prominent(row, grid, -np.inf, np.inf, near=logh,
+                                   within=GROUP_PEAK_WITHIN_LOG)[0]
                 lo_k = min(max(k - 1, 0), grid.size - 3)
                 ests.append(_parabolic_peak(grid[lo_k:lo_k + 3], row[lo_k:lo_k + 3]))
             ests = np.array(ests)

@@ -420,6 +420,36 @@ def test_gravity_shortcut_matches_the_dispersion_relation() -> None:
             np.testing.assert_allclose(vals[c], want, atol=0.01)
 
 
+def test_mode_values_do_not_depend_on_how_candidates_are_batched() -> None:
+    """The searches' per-mode values of a candidate are the same whether it is asked for
+    alone or in a batch, in any order, with repeated altitudes (the velocity searches ask
+    for one altitude at a time) and on a subset of the modes asked for again."""
+    rng = np.random.default_rng(5)
+    frames = rng.random((12, 64, 64)).astype(np.float32)
+    for dispersion in ("gravity", "gravity-capillary"):
+        est = DispersionAltimeter(dispersion=dispersion)
+        p = est._periodogram(frames)
+        logh = np.log(rng.uniform(1.0, 10.0, 7))
+        logh[4:] = logh[0]
+        ux, uy = rng.normal(size=7), rng.normal(size=7)
+        batch = est._mode_values(p, 30.0, 200.0, logh, ux, uy)
+        one = np.stack([est._mode_values(p, 30.0, 200.0, logh[i:i + 1], ux[i:i + 1],
+                                         uy[i:i + 1])[0] for i in range(7)])
+        np.testing.assert_array_equal(batch, one)
+        perm = rng.permutation(7)
+        np.testing.assert_array_equal(
+            est._mode_values(p, 30.0, 200.0, logh[perm], ux[perm], uy[perm]), batch[perm])
+        distinct = np.log([5.0, 1.5, 9.0, 2.5])  # unsorted, no repeats
+        np.testing.assert_array_equal(
+            est._mode_values(p, 30.0, 200.0, distinct, ux[:4], uy[:4]),
+            np.stack([est._mode_values(p, 30.0, 200.0, distinct[i:i + 1], ux[i:i + 1],
+                                       uy[i:i + 1])[0] for i in range(4)]))
+        sub = np.arange(0, p["kappa"].size, 3)
+        for _ in range(2):  # the second time from the cached subset
+            np.testing.assert_array_equal(
+                est._mode_values(p, 30.0, 200.0, logh, ux, uy, modes=sub), batch[:, sub])
+
+
 def test_auto_signal_measures_white_glint_through_the_chroma() -> None:
     """The paper renderer's glint is white and dominates the luminance (the chroma explains
     little of it), whose fit it biases low at high altitude (-8.6 % at 11.1 m here): "auto"

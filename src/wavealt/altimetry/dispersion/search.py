@@ -45,7 +45,14 @@ class _Search:
                             "ky": p["ky"].astype(np.float32), "kappa": p["kappa"],
                             "sqrt_kappa": np.sqrt(p["kappa"]).astype(np.float32)}
         arrays = p["_lookup"]
-        return arrays if modes is None else {k: v[modes] for k, v in arrays.items()}
+        if modes is None:
+            return arrays
+        # the searches ask for the same few subsets many times: gathered once each
+        subsets = p.setdefault("_lookup_subsets", {})
+        key = modes.tobytes()
+        if key not in subsets:
+            subsets[key] = {k: v[modes] for k, v in arrays.items()}
+        return subsets[key]
 
     def _branch_values(self, p: dict[str, Any], fps: float, focal_px: float,
                        logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,
@@ -68,8 +75,12 @@ class _Search:
             scale = np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)
             om = scale.astype(np.float32)[:, None] * a["sqrt_kappa"][None, :]
         else:
-            om = (self.omega(a["kappa"][None, :] * focal_px / np.exp(logh)[:, None])
+            # the velocity searches ask for one altitude at a time: one row of omega then
+            uniq, inv = np.unique(logh, return_inverse=True)
+            om = (self.omega(a["kappa"][None, :] * focal_px / np.exp(uniq)[:, None])
                   * (to_bins / fps)).astype(np.float32)
+            if uniq.size < logh.size or not np.array_equal(uniq, logh):
+                om = om[inv.ravel()]
         dop = (np.atleast_1d(ux) * to_bins).astype(np.float32)[:, None] * a["kx"][None, :]
         dop += (np.atleast_1d(uy) * to_bins).astype(np.float32)[:, None] * a["ky"][None, :]
         flat = pair.ravel()

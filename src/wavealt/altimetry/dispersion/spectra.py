@@ -12,8 +12,11 @@ import scipy.fft
 
 
 def _wrap(phase: np.ndarray) -> np.ndarray:
-    """Wrap angles to ``(-pi, pi]``."""
-    return np.angle(np.exp(1j * phase))
+    """Wrap angles to ``[-pi, pi)``."""
+    out = np.add(phase, np.pi)
+    np.remainder(out, 2.0 * np.pi, out=out)
+    out -= np.pi
+    return out
 
 
 @functools.lru_cache(maxsize=8)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.io import write_video
 
 
 def main() -> None:

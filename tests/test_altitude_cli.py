@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import write_frames_folder
+from wavealt.io import write_frames_folder
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
-from wavealt.video import read_input, read_video, write_video
+from wavealt.io import read_input, read_video, write_video
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
     assert code == 2 and "not found" in err
     folder = tmp_path / "mixed"
     write_frames_folder(folder, frames[0][:3])
-    from wavealt.dataset import write_png
+    from wavealt.io import write_png
     write_png(folder / "frame_999.png", np.zeros((32, 32, 3), np.float32))
     code, _, err = run_cli(["altitude", str(folder), "--fps", "30", "--focal-px", "50"])
     assert code == 2 and "different sizes" in err

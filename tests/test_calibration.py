@@ -189,7 +189,7 @@ def test_per_frame_attitude_levels_every_frame_alike() -> None:
 
 
 def test_cli_levels_a_tilted_clip_from_its_calibration(tmp_path, run_cli) -> None:
-    from wavealt.dataset import write_frames_folder
+    from wavealt.io import write_frames_folder
 
     h, roll, pitch = 6.0, -8.0, 12.0
     nadir, sc, cfg = _scene("paper", h, 1)

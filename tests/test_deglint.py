@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import Dataset, write_png
+from wavealt.dataset import Dataset
+from wavealt.io import write_png
 from wavealt.deglint import (
     METHODS, apply_method, condition_name, deglint_dataset, glint_mask, mae, method_names,
     psnr_db, sliding_min_stream, ssim, temporal_minimum, tmf_residual, window_bounds,

@@ -19,7 +19,7 @@ import pytest
 from wavealt.live import LIVE_COLUMNS, run_live
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.io import write_video
 
 
 def _clip(path, *, frames: int = 60, size: int = 64, times_s=None):

@@ -15,7 +15,7 @@ from wavealt.mavlink import (COVARIANCE_UNKNOWN, SIGNAL_INVALID, MavlinkLink, di
                              ned_to_image, use_mavlink2)
 from wavealt.scenario import preset_config
 from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.io import write_video
 
 mavutil = use_mavlink2()  # the autopilot's end speaks MAVLink 2, as ArduPilot and PX4 do
 M = mavutil.mavlink

@@ -9,7 +9,7 @@ import stat
 import numpy as np
 import pytest
 
-from wavealt.dataset import atomic_save_npz, atomic_write_text
+from wavealt.io import atomic_save_npz, atomic_write_text
 
 
 @pytest.fixture

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import Dataset, read_frames_folder, read_manifest
+from wavealt.dataset import Dataset, read_manifest
+from wavealt.io import read_frames_folder
 from wavealt.scenario import SimConfig, derive_seed, preset_config
 from wavealt.simulate import generate_sequence, simulate_dataset
 

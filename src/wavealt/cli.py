@@ -345,8 +345,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     import json
 
     from wavealt.altimetry.series import OUT_FILES, altitude_series
-    from wavealt.dataset import check_output_folder
-    from wavealt.video import read_clip
+    from wavealt.io import check_output_folder
+    from wavealt.io import read_clip
 
     if sum(x is not None for x in (focal_px, fov_deg, calibration)) != 1:
         msg = "give exactly one of --focal-px, --fov-deg and --calibration"
@@ -450,7 +450,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
 
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.camera import NadirView, read_calibration
-    from wavealt.dataset import check_output_folder
+    from wavealt.io import check_output_folder
     from wavealt.live import LIVE_FILE, run_live
 
     if attitude is not None:

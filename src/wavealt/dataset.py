@@ -9,8 +9,9 @@ DATASET/
   surface/<sequence_id>.npz           (``--save-surface``) height_m, slope_x, slope_y
 ```
 
-Every write is atomic: a sequence folder is written under a temporary name and renamed,
-``dataset.json`` / ``manifest.csv`` are written to a temporary file and replaced.
+Every write is atomic (:mod:`wavealt.io`): a sequence folder is written under a temporary
+name and renamed, ``dataset.json`` / ``manifest.csv`` are written to a temporary file and
+replaced.
 """
 
 from __future__ import annotations
@@ -18,19 +19,16 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import shutil
-import tempfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 
 from wavealt import __version__
-from wavealt._checks import check_frames, read_csv_rows
+from wavealt._checks import read_csv_rows
+from wavealt.io import atomic_write_text, read_frames_folder, write_frames_folder
 from wavealt.scenario import Scenario, SimConfig
 
 FORMAT = "wavealt-dataset"
@@ -46,136 +44,6 @@ BASE_CONDITIONS = {
 
 def sequence_id(index: int) -> str:
     return f"seq_{index:05d}"
-
-
-# -- images -----------------------------------------------------------------------------
-def to_uint8(frames: np.ndarray) -> np.ndarray:
-    """Float frames in [0, 1] to uint8, rounding to nearest."""
-    return np.round(np.clip(frames, 0.0, 1.0) * 255.0).astype(np.uint8)
-
-
-def write_png(path: Path, image: np.ndarray) -> None:
-    """Write one ``(H, W, 3)`` frame (float in [0, 1] or uint8) as an 8-bit RGB PNG."""
-    img = image if image.dtype == np.uint8 else to_uint8(image)
-    Image.fromarray(img, mode=None).save(path, format="PNG", compress_level=1)
-
-
-def read_png(path: Path) -> np.ndarray:
-    """Read an image file as ``(H, W, 3)`` float32 in [0, 1]."""
-    path = Path(path)
-    if not path.is_file():
-        msg = f"image file not found: {path}"
-        raise FileNotFoundError(msg)
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im.convert("RGB"), dtype=np.uint8)
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
-        msg = f"cannot read image {path}: {exc}"
-        raise ValueError(msg) from None
-    return arr.astype(np.float32) / 255.0
-
-
-def frame_files(folder: Path) -> list[Path]:
-    """Image files of a frame folder in natural order (``frame_2`` before ``frame_10``)."""
-    from natsort import natsorted
-
-    exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
-    return natsorted((p for p in Path(folder).iterdir()
-                      if p.suffix.lower() in exts and p.is_file()), key=lambda p: p.name)
-
-
-def read_frames_folder(folder: Path | str) -> np.ndarray:
-    """Read every image of ``folder`` (natural order) as ``(T, H, W, 3)`` float32."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        msg = f"frame folder not found: {folder}"
-        raise FileNotFoundError(msg)
-    files = frame_files(folder)
-    if not files:
-        msg = f"frame folder {folder} holds no image files"
-        raise ValueError(msg)
-    frames = [read_png(p) for p in files]
-    shapes = {f.shape for f in frames}
-    if len(shapes) > 1:
-        msg = f"frames in {folder} have different sizes: {sorted(shapes)}"
-        raise ValueError(msg)
-    return np.stack(frames)
-
-
-def write_frames_folder(folder: Path | str, frames: np.ndarray) -> None:
-    """Write ``(T, H, W, 3)`` frames as ``frame_000.png`` ... atomically.
-
-    The frames go to a temporary sibling folder which is renamed to ``folder``; an existing
-    ``folder`` is replaced only once the new one is complete.
-    """
-    frames = check_frames(frames)
-    folder = Path(folder)
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
-    try:
-        for t, frame in enumerate(frames):
-            write_png(tmp / f"frame_{t:03d}.png", frame)
-        if folder.exists():
-            old = folder.with_name(f".{folder.name}.old-{os.getpid()}")
-            folder.rename(old)
-            tmp.rename(folder)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(folder)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def publish(tmp: Path | str, path: Path | str) -> None:
-    """Move a finished temporary file onto ``path`` with the permissions a plain ``open``
-    would give it (``0o666`` less the umask; ``mkstemp`` makes files ``0o600``)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
-
-
-def check_output_folder(out: Path | str, names: Iterable[str], *, force: bool = False,
-                        what: str | None = None) -> Path:
-    """The one overwrite rule of every command: ``out`` must be a folder (or not exist yet),
-    and one that already holds any of ``names`` is refused unless ``force`` — before any
-    work, so nothing written earlier is replaced silently. ``what`` names the earlier
-    result in the message (default: the files found)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out} is a file; give a folder"
-        raise ValueError(msg)
-    held = [n for n in names if (out / n).exists()]
-    if held and not force:
-        msg = f"--out {out} already holds {what or ', '.join(held)}; use another folder or --force"
-        raise ValueError(msg)
-    return out
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
-        np.savez_compressed(tmp, **arrays)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 # -- manifest ---------------------------------------------------------------------------

@@ -661,7 +661,7 @@ def _check_glinty_folders(ds: Any) -> None:
     """Every sequence has a glinty folder of >= 2 frames of one size (image headers only)."""
     from PIL import Image
 
-    from wavealt.dataset import frame_files
+    from wavealt.io import frame_files
 
     ds.require_condition("glinty")
     for rec in ds.records:
@@ -688,7 +688,7 @@ def _check_glinty_folders(ds: Any) -> None:
 
 def _quantised(frames: np.ndarray) -> np.ndarray:
     """What the PNG on disk will hold, back as float32."""
-    from wavealt.dataset import to_uint8
+    from wavealt.io import to_uint8
 
     return to_uint8(frames).astype(np.float32) / 255.0
 
@@ -737,7 +737,8 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
     """
     from tqdm import tqdm
 
-    from wavealt.dataset import Dataset, atomic_write_text, read_frames_folder
+    from wavealt.dataset import Dataset
+    from wavealt.io import atomic_write_text, read_frames_folder
 
     _check_method(method)
     _half_window(window)

@@ -361,7 +361,8 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         Replace the results already in ``out``; without it an ``out`` holding
         ``metrics.json`` is refused before any work.
     """
-    from wavealt.dataset import Dataset, atomic_write_text, check_output_folder
+    from wavealt.dataset import Dataset
+    from wavealt.io import atomic_write_text, check_output_folder
 
     if out is not None:
         check_output_folder(out, ("metrics.json",), force=force,

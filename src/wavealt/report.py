@@ -107,7 +107,7 @@ class _Stages:
         return result
 
     def _write(self) -> None:
-        from wavealt.dataset import atomic_write_text
+        from wavealt.io import atomic_write_text
 
         atomic_write_text(self.path, json.dumps(self.data, indent=2) + "\n")
 
@@ -242,7 +242,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
                             "seconds": round(time.perf_counter() - t_start, 2)}
     stages._write()
     md = build_report_markdown(out, sc, stages.data, evals, runs)
-    from wavealt.dataset import atomic_write_text
+    from wavealt.io import atomic_write_text
 
     atomic_write_text(out / "report.md", md)
     atomic_write_text(out / "report.html", markdown_to_html(md, base=out))

@@ -105,7 +105,8 @@ def _generate_paper_sequence(scenario: Scenario, config: SimConfig, *,
 
 # -- whole dataset to disk ---------------------------------------------------------------
 def _write_one(args: tuple[str, dict, int, bool]) -> int:
-    from wavealt.dataset import atomic_save_npz, records_of_index, write_frames_folder
+    from wavealt.dataset import records_of_index
+    from wavealt.io import atomic_save_npz, write_frames_folder
 
     root_s, cfg_dict, index, save_surface = args
     root = Path(root_s)
@@ -134,9 +135,8 @@ def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
     """
     from tqdm import tqdm
 
-    from wavealt.dataset import (
-        Dataset, ids_missing, manifest_text, new_info, records_of, write_info, atomic_write_text,
-    )
+    from wavealt.dataset import Dataset, ids_missing, manifest_text, new_info, records_of, write_info
+    from wavealt.io import atomic_write_text
 
     out = Path(out)
     if int(workers) != workers or workers < 1:

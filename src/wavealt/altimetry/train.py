@@ -48,7 +48,6 @@ import json
 import math
 import os
 import random
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -61,6 +60,7 @@ from torch import nn
 from tqdm.auto import tqdm
 
 from wavealt._checks import check_known_keys
+from wavealt.io import atomic_path, atomic_write_text
 from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, create_model, load_pretrained
 from wavealt.altimetry.device import (autocast, describe_device, prepare_model, resolve_device,
                                      to_device)
@@ -370,21 +370,11 @@ def _build_model(cfg: TrainConfig, in_channels: int) -> ResNetRegressor:
 
 # -- training ---------------------------------------------------------------------------
 def _atomic_torch_save(obj: Any, path: Path) -> None:
-    from wavealt.dataset import publish
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         torch.save(obj, tmp)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _write_json(path: Path, obj: Any) -> None:
-    from wavealt.dataset import atomic_write_text
-
     atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
 
 

@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.io import write_frames_folder
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.io import read_input, read_video, write_video
+from wavealt.io import read_input, read_video, write_frames_folder, write_video
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 @pytest.fixture(scope="module")

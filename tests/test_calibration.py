@@ -11,10 +11,17 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter
-from wavealt.camera import (Calibration, NadirView, pinhole, read_attitude, read_calibration,
-                            tilt_rotation, write_calibration)
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
+from wavealt.camera import (
+    Calibration,
+    NadirView,
+    pinhole,
+    read_attitude,
+    read_calibration,
+    tilt_rotation,
+    write_calibration,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 K = np.array([[410.0, 0.0, 322.5], [0.0, 412.0, 238.0], [0.0, 0.0, 1.0]])
 D = np.array([-0.28, 0.09, 0.001, -0.0005, -0.01])

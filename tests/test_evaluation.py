@@ -10,8 +10,14 @@ import numpy as np
 import pytest
 
 from wavealt.dataset import Dataset
-from wavealt.evaluation import (METRIC_KEYS, ConstantEstimator, altitude_metrics, evaluate,
-                                parse_estimator, train_split_mean_m)
+from wavealt.evaluation import (
+    METRIC_KEYS,
+    ConstantEstimator,
+    altitude_metrics,
+    evaluate,
+    parse_estimator,
+    train_split_mean_m,
+)
 
 
 def test_metrics_match_hand_computed_example() -> None:
@@ -109,7 +115,7 @@ def test_incomplete_condition_is_skipped_and_refused(tiny_dataset, tmp_path) -> 
 
 def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
     from wavealt.evaluation import DispersionEstimator, dispersion_of
-    from wavealt.scenario import preset_config
+    from wavealt.sim.config import preset_config
 
     assert dispersion_of(preset_config("paper", sequences=6, size=64)) == "gravity"
     assert dispersion_of(preset_config("realistic", sequences=6, size=64)) == "gravity-capillary"

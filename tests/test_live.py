@@ -16,10 +16,10 @@ import time
 import numpy as np
 import pytest
 
-from wavealt.live import LIVE_COLUMNS, run_live
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
 from wavealt.io import write_video
+from wavealt.live import LIVE_COLUMNS, run_live
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def _clip(path, *, frames: int = 60, size: int = 64, times_s=None):

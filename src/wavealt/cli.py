@@ -95,8 +95,8 @@ def simulate(out: Path, preset: str, sequences: int | None, frames: int | None,
              camera_speed_mps: str | None, workers: int, save_surface: bool,
              figures: bool) -> None:
     """Generate a paired clean/glinty dataset into OUT."""
-    from wavealt.scenario import preset_config
-    from wavealt.simulate import simulate_dataset
+    from wavealt.dataset import simulate_dataset
+    from wavealt.sim.config import preset_config
 
     config = preset_config(
         preset, sequences=sequences, frames=frames, size=size, fps=fps, fov_deg=fov_deg,
@@ -345,8 +345,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     import json
 
     from wavealt.altimetry.series import OUT_FILES, altitude_series
-    from wavealt.io import check_output_folder
-    from wavealt.io import read_clip
+    from wavealt.io import check_output_folder, read_clip
 
     if sum(x is not None for x in (focal_px, fov_deg, calibration)) != 1:
         msg = "give exactly one of --focal-px, --fov-deg and --calibration"

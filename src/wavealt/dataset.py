@@ -1,4 +1,4 @@
-"""The dataset folder (DESIGN.md): read, write, resume, and the manifest.
+"""The dataset folder: read, write (a simulated one), resume, and the manifest.
 
 ```
 DATASET/
@@ -19,20 +19,29 @@ from __future__ import annotations
 import csv
 import io
 import json
+import multiprocessing as mp
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm import tqdm
 
 from wavealt import __version__
 from wavealt._checks import read_csv_rows
-from wavealt.io import atomic_write_text, read_frames_folder, write_frames_folder
-from wavealt.scenario import Scenario, SimConfig
+from wavealt.io import (
+    atomic_save_npz,
+    atomic_write_text,
+    read_frames_folder,
+    write_frames_folder,
+)
+from wavealt.sim.config import Scenario, SimConfig
+from wavealt.sim.generate import generate_sequence
 
 FORMAT = "wavealt-dataset"
-FORMAT_VERSION = 1
+#: 2: the config's renderer and sensor settings are nested objects (1: flat; still read)
+FORMAT_VERSION = 2
 MANIFEST_COLUMNS = ("sequence_id", "split", "altitude_m", "wind_speed_mps", "wind_dir_deg",
                     "sun_zenith_deg", "sun_azimuth_deg", "glint_severity", "fps", "focal_px",
                     "frames", "seed", "camera_speed_mps", "camera_dir_deg")
@@ -221,3 +230,78 @@ def ids_missing(root: Path, records: Iterable[SequenceRecord], conditions: Itera
 def records_of_index(config: SimConfig, index: int) -> SequenceRecord:
     """Manifest row ``index`` of a config, without building the others."""
     return SequenceRecord(sequence_id(index), config.splits()[index], config.sample_scenario(index))
+
+
+# -- a simulated dataset to disk --------------------------------------------------------
+def _write_one(args: tuple[str, dict, int, bool]) -> int:
+    root_s, cfg_dict, index, save_surface = args
+    root = Path(root_s)
+    config = SimConfig.from_dict(cfg_dict)
+    rec = records_of_index(config, index)
+    need = [c for c in ("clean", "glinty") if not (root / c / rec.sequence_id).is_dir()]
+    surf_path = root / "surface" / f"{rec.sequence_id}.npz"
+    need_surface = save_surface and not surf_path.is_file()
+    if not need and not need_surface:
+        return index
+    data = generate_sequence(rec.scenario, config, with_height=need_surface)
+    for c in need:
+        write_frames_folder(root / c / rec.sequence_id, getattr(data, c))
+    if need_surface:
+        atomic_save_npz(surf_path, height_m=data.height_m, slope_x=data.slope_x,
+                        slope_y=data.slope_y)
+    return index
+
+
+def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
+                     save_surface: bool = False, progress: bool = True) -> Path:
+    """Write the dataset of ``config`` to ``out`` (the layout in this module's docstring).
+
+    Resumes: sequences already complete are kept; a folder holding a dataset of another
+    config is refused untouched.  ``workers`` processes give the same bytes as one.
+    """
+    out = Path(out)
+    if int(workers) != workers or workers < 1:
+        msg = f"workers must be a positive integer; got {workers!r}"
+        raise ValueError(msg)
+    if out.exists() and not out.is_dir():
+        msg = f"OUT {out} is an existing file; give a folder for the dataset"
+        raise ValueError(msg)
+    if (out / "dataset.json").is_file():
+        existing = Dataset(out).config
+        if existing != config:
+            a, b = existing.to_dict(), config.to_dict()
+            diff = ", ".join(f"{k}: {a[k]!r} -> {b[k]!r}" for k in a if a[k] != b[k])
+            msg = f"OUT {out} holds a dataset made with a different config ({diff}); choose another folder"
+            raise ValueError(msg)
+    elif out.is_dir() and any(out.iterdir()):
+        msg = f"OUT {out} is a non-empty folder that holds no wavealt dataset; choose another folder"
+        raise ValueError(msg)
+    out.mkdir(parents=True, exist_ok=True)
+    records = records_of(config)
+    if not (out / "dataset.json").is_file():
+        write_info(out, new_info(config))
+    atomic_write_text(out / "manifest.csv", manifest_text(records))
+    todo = ids_missing(out, records, ("clean", "glinty"), save_surface)
+    if save_surface:
+        (out / "surface").mkdir(exist_ok=True)
+    tasks = [(str(out), config.to_dict(), i, save_surface) for i in todo]
+    bar = tqdm(total=len(records), initial=len(records) - len(todo), desc="simulate",
+               unit="seq", disable=not progress)
+    try:
+        if workers == 1 or len(tasks) <= 1:
+            for t in tasks:
+                _write_one(t)
+                bar.update()
+        else:
+            ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+            with ctx.Pool(int(workers)) as pool:
+                for _ in pool.imap_unordered(_write_one, tasks):
+                    bar.update()
+    finally:
+        bar.close()
+    if save_surface:
+        info = Dataset(out).info
+        info["conditions"]["surface"] = {"description": "ground truth per sequence: surface/<id>.npz "
+                                         "with height_m, slope_x, slope_y (T, H, W) float32"}
+        write_info(out, info)
+    return out

@@ -420,7 +420,10 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         atomic_write_text(out / "predictions.csv", predictions_csv(preds))
         atomic_write_text(out / "table.md", table_markdown(result))
         if figures:
-            from wavealt.plots import figure_error_distribution, figure_predicted_vs_actual
+            from wavealt.plots import (
+                figure_error_distribution,
+                figure_predicted_vs_actual,
+            )
 
             title = f"{est.name}, {split} split"
             figure_predicted_vs_actual(preds, out / "fig5_predicted_vs_actual.png", title=title)

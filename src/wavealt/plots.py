@@ -77,8 +77,9 @@ def dataset_figures(dataset: Path | str, out: Path | str, *,
     """Fig. 2 and Fig. 3 of one sequence of a dataset (re-synthesised from its seed)."""
     from wavealt.camera import Camera
     from wavealt.dataset import Dataset
-    from wavealt.ocean.optics import shade, sun_vector
-    from wavealt.simulate import generate_sequence, optics_of
+    from wavealt.sim.generate import generate_sequence
+    from wavealt.sim.light.optics import shade, sun_vector
+    from wavealt.sim.paper import optics_of
 
     ds = Dataset(dataset)
     if sequence_id is None:
@@ -238,8 +239,8 @@ def figure_presets(path: Path | str, *, size: int = 192, seed: int = 7) -> Path:
     Each row is one scene (altitude, wind, sun zenith from :data:`PRESET_SCENES`), rendered by
     both presets from the same scenario: clean and glinty frames of each.
     """
-    from wavealt.scenario import Scenario, preset_config
-    from wavealt.simulate import generate_sequence
+    from wavealt.sim.config import Scenario, preset_config
+    from wavealt.sim.generate import generate_sequence
 
     configs = {name: preset_config(name, size=size, frames=2) for name in ("paper", "realistic")}
     cols = [("paper", "clean"), ("paper", "glinty"), ("realistic", "clean"), ("realistic", "glinty")]

@@ -158,8 +158,8 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
     t_start = time.perf_counter()
 
     def simulate() -> dict[str, Any]:
-        from wavealt.scenario import preset_config
-        from wavealt.simulate import simulate_dataset
+        from wavealt.dataset import simulate_dataset
+        from wavealt.sim.config import preset_config
 
         cfg = preset_config("paper", sequences=sc.sequences, size=sc.size, frames=sc.frames)
         simulate_dataset(ds_path, cfg, progress=progress)

@@ -60,10 +60,20 @@ from torch import nn
 from tqdm.auto import tqdm
 
 from wavealt._checks import check_known_keys
+from wavealt.altimetry.cnn import (
+    MIN_INPUT_PX,
+    ResNetRegressor,
+    create_model,
+    load_pretrained,
+)
+from wavealt.altimetry.device import (
+    autocast,
+    describe_device,
+    prepare_model,
+    resolve_device,
+    to_device,
+)
 from wavealt.io import atomic_path, atomic_write_text
-from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, create_model, load_pretrained
-from wavealt.altimetry.device import (autocast, describe_device, prepare_model, resolve_device,
-                                     to_device)
 
 CHECKPOINT_LAST = "last.pt"
 CHECKPOINT_BEST = "best.pt"

@@ -22,57 +22,12 @@ from __future__ import annotations
 
 import io
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from wavealt._checks import as_rng, check_choice, check_finite_number
-
-COMPRESSIONS = ("none", "jpeg", "h264")
-
-
-@dataclass(frozen=True)
-class SensorModel:
-    """Sensor and encoder settings.
-
-    Parameters
-    ----------
-    full_well_e : float
-        Electrons at full scale (> 0).
-    read_noise_e : float
-        Read noise standard deviation, electrons (>= 0).
-    target_grey : float
-        Linear full-scale fraction the mean clean luminance is exposed to (0, 1).
-    srgb : bool
-        Encode with the sRGB transfer function (else frames stay linear).
-    compression : {"none", "jpeg", "h264"}
-    jpeg_quality : int
-        1..100 (Pillow's scale).
-    h264_crf : int
-        0..51, libx264 constant rate factor.
-    """
-
-    full_well_e: float = 20000.0
-    read_noise_e: float = 5.0
-    target_grey: float = 0.18
-    srgb: bool = True
-    compression: str = "none"
-    jpeg_quality: int = 90
-    h264_crf: int = 23
-
-    def __post_init__(self) -> None:
-        check_finite_number("full_well_e", self.full_well_e, low=0.0, low_open=True)
-        check_finite_number("read_noise_e", self.read_noise_e, low=0.0)
-        check_finite_number("target_grey", self.target_grey, low=0.0, high=1.0, low_open=True,
-                            high_open=True)
-        check_choice("compression", self.compression, COMPRESSIONS)
-        if int(self.jpeg_quality) != self.jpeg_quality or not 1 <= self.jpeg_quality <= 100:
-            msg = f"jpeg_quality must be an integer in [1, 100]; got {self.jpeg_quality!r}"
-            raise ValueError(msg)
-        if int(self.h264_crf) != self.h264_crf or not 0 <= self.h264_crf <= 51:
-            msg = f"h264_crf must be an integer in [0, 51]; got {self.h264_crf!r}"
-            raise ValueError(msg)
+from wavealt._checks import as_rng, check_finite_number
+from wavealt.sim.config import COMPRESSIONS, SensorModel
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:

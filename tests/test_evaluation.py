@@ -58,7 +58,8 @@ def test_constant_baseline_is_exact(tiny_dataset, tmp_path) -> None:
 
 
 def test_cnn_estimator_and_figures(tiny_dataset, tmp_path) -> None:
-    from wavealt.altimetry.train import TrainConfig, train
+    from wavealt.altimetry.data import TrainConfig
+    from wavealt.altimetry.train import train
 
     run = tmp_path / "run"
     train(tiny_dataset, run, TrainConfig(condition="bright", model="resnet-tiny", epochs=1,

@@ -185,7 +185,8 @@ def train(dataset: Path, run: Path, condition: str, model: str, epochs: int, bat
           lr: float, seed: int, crop_px: int | None, frames_per_sequence: int, temporal: bool,
           workers: int, threads: int, pretrained: Path | None, resume: bool, device: str) -> None:
     """Train the CNN altimeter on DATASET (paper Table 1)."""
-    from wavealt.altimetry.train import CHECKPOINT_LAST, TrainConfig
+    from wavealt.altimetry.data import TrainConfig
+    from wavealt.altimetry.predict import CHECKPOINT_LAST
     from wavealt.altimetry.train import train as train_run
 
     cfg = TrainConfig(condition=condition, model=model, epochs=epochs, batch_size=batch_size,

@@ -115,7 +115,7 @@ class CnnEstimator:
     """The CNN of a training run folder (best checkpoint), mean over a sequence's frames."""
 
     def __init__(self, run: Path | str, *, device: str = "auto") -> None:
-        from wavealt.altimetry.train import load_run
+        from wavealt.altimetry.predict import load_run
 
         self.run = Path(run)
         self.predictor = load_run(self.run, device=device)
@@ -274,7 +274,7 @@ def parse_estimator(spec: str, dataset: Any = None, *, device: str = "auto") -> 
     if kind == "cnn" and arg:
         return CnnEstimator(arg, device=device)
     if kind == "constant" and arg:
-        from wavealt.altimetry.train import CONFIG_NAME
+        from wavealt.altimetry.predict import CONFIG_NAME
 
         cfg = Path(arg) / CONFIG_NAME
         if not cfg.is_file():

@@ -200,7 +200,8 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
             continue
 
         def train_one(c: str = c, name: str = name, temporal: bool = temporal) -> dict[str, Any]:
-            from wavealt.altimetry.train import TrainConfig, train
+            from wavealt.altimetry.data import TrainConfig
+            from wavealt.altimetry.train import train
 
             cfg = TrainConfig(condition=c, model=sc.model, epochs=sc.epochs,
                               batch_size=sc.batch_size, lr=sc.lr,
@@ -214,7 +215,7 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
         if stages.run(f"train:{name}", train_one) is not None or stages.done(f"train:{name}"):
             runs[name] = out / "runs" / name
 
-    from wavealt.altimetry.train import set_num_threads
+    from wavealt.altimetry.data import set_num_threads
 
     set_num_threads(sc.threads)  # inference too (load_run does not set threads)
     evals: dict[str, dict[str, Any]] = {}

@@ -162,6 +162,16 @@ def test_version(capsys):
     assert "wavealt 0.1.0" in out and "numpy" in out and "torch" in out
 
 
+def test_top_level_help_shows_every_description_whole(capsys):
+    main(["--help"])
+    out = capsys.readouterr().out
+    commands = out.split("Commands:")[1].strip().splitlines()
+    assert {c.split()[0] for c in commands} == {"altitude", "deglint", "evaluate", "figures",
+                                                 "reproduce", "simulate", "train"}
+    assert "..." not in out.split("Commands:")[1]
+    assert "Draw the dataset figures (paper Fig. 2 and Fig. 3)." in out
+
+
 def test_config_rejects_unknown_keys():
     d = preset_config("paper").to_dict()
     d["altitdue_m"] = [1, 2]

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -99,9 +101,6 @@ def check_choice(name: str, value: Any, choices: Any) -> Any:
 def read_csv_rows(path: Any, columns: tuple[str, ...], what: str) -> list[dict[str, str]]:
     """The rows of a CSV file with a header that holds ``columns``; a missing file or column
     is a one-line error naming ``what`` the file is (e.g. ``"attitude file"``)."""
-    import csv
-    from pathlib import Path
-
     path = Path(path)
     if not path.is_file():
         msg = f"{what} not found: {path}"

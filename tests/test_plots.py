@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
-from wavealt.plots import MAX_COLUMNS, figure_error_distribution, figure_predicted_vs_actual
+from wavealt.plots import (
+    MAX_COLUMNS,
+    figure_error_distribution,
+    figure_predicted_vs_actual,
+)
 
 CONDITIONS = ("clean", "glinty", "residual", "tmf-min", "median", "percentile", "glint-mask",
               "achromatic")

@@ -153,7 +153,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
         return
     if dispersion == "auto":
-        from wavealt.evaluation import dispersion_of_input
+        from wavealt.altimetry.relation import dispersion_of_input
 
         dispersion = dispersion_of_input(input_path)
     if out is not None:

@@ -29,7 +29,7 @@ import numpy as np
 
 from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion import DISPERSIONS, DispersionAltimeter
-from wavealt.dataset import Dataset
+from wavealt.altimetry.relation import dispersion_of, dispersion_of_input
 
 #: Default one-sigma spread (m/s) of ``dispersion-prior``: the camera's velocity over the
 #: water may differ from the navigation's by about a strong tidal current.
@@ -75,45 +75,6 @@ class CnnEstimator:
     def estimate(self, dataset: Any, condition: str, record: Any) -> float:
         frames = dataset.read_frames(condition, record.sequence_id)
         return self.predictor.predict_sequence(frames)
-
-
-def dispersion_of(config: Any) -> str:
-    """The dispersion relation a dataset's waves obey: ``"gravity"`` or ``"gravity-capillary"``.
-
-    The ``paper`` renderer moves its waves with the deep-water relation ``omega = sqrt(g k)``
-    only (paper §3.1); the ``realistic`` renderer with ``omega^2 = g k + (sigma/rho) k^3``.
-
-    Parameters
-    ----------
-    config : SimConfig or None
-        The dataset's generator config; None (unknown data) gives the real-water relation.
-    """
-    if config is None:
-        return "gravity-capillary"
-    renderer = getattr(config, "renderer", "paper")
-    return "gravity" if renderer == "paper" else "gravity-capillary"
-
-
-def dispersion_of_input(path: Path | str) -> str:
-    """The dispersion relation for the frames at ``path`` (``wavealt altitude --dispersion
-    auto``).
-
-    A sequence folder of a wavealt dataset (``DATASET/<condition>/<sequence_id>/`` with
-    ``DATASET/dataset.json``) takes the relation of the dataset's renderer
-    (:func:`dispersion_of` of its config); anything else is taken for real water
-    (``"gravity-capillary"``).
-
-    Parameters
-    ----------
-    path : path
-        A frame folder or a video file.
-    """
-    folder = Path(path)
-    if folder.is_dir():
-        root = folder.resolve().parent.parent
-        if (root / "dataset.json").is_file():
-            return dispersion_of(Dataset(root).config)
-    return dispersion_of(None)
 
 
 @dataclass(frozen=True)

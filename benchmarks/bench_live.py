@@ -70,7 +70,7 @@ def main() -> None:
 
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.live import run_live
-    from wavealt.mavlink import MavlinkLink
+    from wavealt.live.mavlink import MavlinkLink
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "stream.mp4"

@@ -12,7 +12,7 @@ import pytest
 
 from wavealt.cli import main
 from wavealt.io import write_video
-from wavealt.mavlink import (
+from wavealt.live.mavlink import (
     COVARIANCE_UNKNOWN,
     SIGNAL_INVALID,
     MavlinkLink,

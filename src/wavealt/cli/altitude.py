@@ -163,7 +163,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                                          pitch_deg, attitude)
     link = None
     if mavlink is not None:
-        from wavealt.mavlink import MavlinkLink
+        from wavealt.live.mavlink import MavlinkLink
 
         lo, hi = number_range(mavlink_range, "mavlink-range")
         fov_h = 2 * math.atan(frames.shape[2] / (2 * focal_px))
@@ -272,7 +272,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         return res
 
     if mavlink is not None:
-        from wavealt.mavlink import MavlinkLink
+        from wavealt.live.mavlink import MavlinkLink
 
         lo, hi = number_range(mavlink_range, "mavlink-range")
         link = MavlinkLink(mavlink, min_m=lo, max_m=hi)

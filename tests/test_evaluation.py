@@ -200,3 +200,11 @@ def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> N
     assert "The sequences it trusts (it flags the others itself: not trusted)" in table
     flagged = res.metrics["clean"]["flagged"]
     assert f"| Clean | {flagged} of {len(truth)} |" in table
+
+
+def test_printed_numbers_never_read_minus_zero() -> None:
+    from wavealt.evaluation import fmt
+
+    assert fmt(-0.001) == "0.00" and fmt(-0.001, signed=True) == "+0.00"
+    assert fmt(-0.004, signed=True, digits=2) == "+0.00" and fmt(-0.006, signed=True) == "-0.01"
+    assert fmt(float("nan")) == "—" and fmt(None) == "—" and fmt(1.234, digits=1) == "1.2"

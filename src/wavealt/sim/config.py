@@ -21,7 +21,12 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_choice, check_finite_number, check_known_keys
+from wavealt._checks import (
+    check_choice,
+    check_finite_number,
+    check_known_keys,
+    check_rgb,
+)
 from wavealt.camera import MAX_ALTITUDE_M, focal_px_from_fov
 from wavealt.sim.sea.realistic import SPECTRA, SPREADINGS
 
@@ -99,14 +104,10 @@ class PaperConfig:
     clean_glint_severity: float = 0.0
 
     def __post_init__(self) -> None:
+        # the bounds of wavealt.sim.light.optics.Optics, which the renderer builds from these
         for name in ("water_rgb", "sky_rgb", "display_rgb"):
-            rgb = getattr(self, name)
-            if len(rgb) != 3:
-                msg = f"{name} must be three numbers (R, G, B); got {rgb!r}"
-                raise ValueError(msg)
-            for x in rgb:
-                check_finite_number(name, x, low=0.0)
-        check_finite_number("contrast", self.contrast, low=0.0, low_open=True)
+            check_rgb(name, getattr(self, name))
+        check_finite_number("contrast", self.contrast, low=0.0, low_open=True, high=1.0)
         check_finite_number("lobe_exponent", self.lobe_exponent, low=0.0, low_open=True)
         check_finite_number("clean_glint_severity", self.clean_glint_severity, low=0.0)
 
@@ -253,7 +254,7 @@ class SimConfig:
                             high_open=True)
         check_finite_number("fps", self.fps, low=0.0, low_open=True)
         check_finite_number("domain_pad", self.domain_pad, low=1.0)
-        check_finite_number("refractive_index", self.refractive_index, low=1.0)
+        check_finite_number("refractive_index", self.refractive_index, low=1.0, low_open=True)
         if len(self.split) != 3 or any(f < 0 for f in self.split) or not math.isclose(sum(self.split), 1.0):
             msg = f"split must be three non-negative fractions summing to 1; got {self.split!r}"
             raise ValueError(msg)

@@ -133,3 +133,12 @@ def test_altitude_reaches_the_sea_only_through_the_grid_spacing():
     totals = [s.resolved_slope_variance + s.long_slope_variance + s.subpixel_slope_variance
               for s in seas]
     np.testing.assert_allclose(totals, seas[0].spectrum.slope_variance, rtol=1e-9)
+
+
+def test_a_folder_of_another_renderer_is_refused_naming_the_difference(tmp_path):
+    out = simulate_dataset(tmp_path / "ds", small(sequences=1, frames=2, size=32,
+                                                  compression="none"), progress=False)
+    with pytest.raises(ValueError, match=r"holds a dataset made with a different config \(.*"
+                                         r"renderer: 'realistic' -> 'paper'.*"
+                                         r"sensor.compression: 'none' -> '-'"):
+        simulate_dataset(out, small("paper", sequences=1, frames=2, size=32), progress=False)

@@ -252,6 +252,17 @@ def _write_one(args: tuple[str, dict, int, bool]) -> int:
     return index
 
 
+def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A nested config dict as ``{"sensor.compression": ..., ...}`` (for messages)."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
                      save_surface: bool = False, progress: bool = True) -> Path:
     """Write the dataset of ``config`` to ``out`` (the layout in this module's docstring).
@@ -269,8 +280,9 @@ def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
     if (out / "dataset.json").is_file():
         existing = Dataset(out).config
         if existing != config:
-            a, b = existing.to_dict(), config.to_dict()
-            diff = ", ".join(f"{k}: {a[k]!r} -> {b[k]!r}" for k in a if a[k] != b[k])
+            a, b = _flat(existing.to_dict()), _flat(config.to_dict())
+            diff = ", ".join(f"{k}: {a.get(k, '-')!r} -> {b.get(k, '-')!r}"
+                             for k in sorted(a.keys() | b.keys()) if a.get(k) != b.get(k))
             msg = f"OUT {out} holds a dataset made with a different config ({diff}); choose another folder"
             raise ValueError(msg)
     elif out.is_dir() and any(out.iterdir()):

@@ -21,7 +21,7 @@ MAX_ALTITUDE_M = 15.0
 def focal_px_from_fov(width_px: int, fov_x_deg: float) -> float:
     """Focal length in pixels of a pinhole with horizontal field of view ``fov_x_deg``.
 
-    ``focal_px = (W / 2) / tan(fov_x / 2)`` (DESIGN.md).
+    ``focal_px = (W / 2) / tan(fov_x / 2)`` (pinhole).
     """
     fov = check_finite_number("fov_deg", fov_x_deg, low=0.0, high=180.0, low_open=True,
                               high_open=True)

@@ -8,16 +8,16 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from wavealt.camera import Camera  # noqa: E402
-from wavealt.dataset import Dataset  # noqa: E402
-from wavealt.deglint import temporal_minimum, tmf_residual  # noqa: E402
-from wavealt.sim.config import Scenario, preset_config  # noqa: E402
-from wavealt.sim.generate import generate_sequence  # noqa: E402
-from wavealt.sim.light.optics import shade, sun_vector  # noqa: E402
-from wavealt.sim.paper import optics_of  # noqa: E402
+from wavealt.camera import Camera
+from wavealt.dataset import Dataset
+from wavealt.deglint import temporal_minimum, tmf_residual
+from wavealt.sim.config import Scenario, preset_config
+from wavealt.sim.generate import generate_sequence
+from wavealt.sim.light.optics import shade, sun_vector
+from wavealt.sim.paper import optics_of
 
 DPI = 120
 #: Small-multiple figures (Fig. 5, Fig. 6) wrap to this many panels a row, so that eight

@@ -36,6 +36,21 @@ def test_html_renders_lists_emphasis_and_code_not_their_markup(tmp_path) -> None
     assert 'src="nope.png"' in page  # a missing figure keeps its link, no crash
 
 
+def test_reproduce_resumes_its_own_scale_only(tmp_path, run_cli) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "reproduce.json").write_text('{"scale": "quick"}')
+    code, _, err = run_cli(["reproduce", str(out), "--scale", "paper"])
+    assert code == 2 and err.count("\n") == 1
+    assert f"OUT {out} holds a `reproduce --scale quick` run" in err and "--scale paper" in err
+    junk = tmp_path / "junk"
+    junk.mkdir()
+    (junk / "notes.txt").write_text("keep")
+    code, _, err = run_cli(["reproduce", str(junk)])
+    assert code == 2 and "holds no reproduce run" in err
+    assert sorted(p.name for p in junk.iterdir()) == ["notes.txt"]
+
+
 def test_scales_label_quick_as_not_the_paper() -> None:
     assert SCALES["paper"].model == "resnet50" and SCALES["paper"].size == 224
     assert SCALES["paper"].epochs == 30 and SCALES["paper"].batch_size == 32
@@ -194,6 +209,7 @@ def test_reproduce_end_to_end_at_a_tiny_scale(tmp_path, monkeypatch) -> None:
     out = tmp_path / "out"
     md_path, html_path = reproduce(out, scale="tiny", progress=False)
     md = md_path.read_text()
+    assert json.loads((out / "reproduce.json").read_text()) == {"scale": "tiny"}
     stages = json.loads((out / "stages.json").read_text())
     assert all(v["status"] == "done" for v in stages.values()), stages
     rows = {line.split(" | ")[0] for line in md.split("### MAE (m)")[1].split("###")[0].splitlines()

@@ -41,6 +41,31 @@ from wavealt.report.scales import SCALES
 from wavealt.sim.config import preset_config
 
 
+#: What a ``reproduce`` folder was made with: a re-run resumes it only at the same scale.
+RUN_FILE = "reproduce.json"
+
+
+def _check_out(out: Path, sc: ReproduceScale) -> None:
+    """The overwrite rule: ``out`` is new, or a ``reproduce`` run of the same scale (resumed);
+    anything else is refused before any work."""
+    if out.exists() and not out.is_dir():
+        msg = f"OUT {out} is a file; give a folder"
+        raise ValueError(msg)
+    run_file = out / RUN_FILE
+    if run_file.is_file():
+        try:
+            scale = json.loads(run_file.read_text(encoding="utf-8")).get("scale")
+        except json.JSONDecodeError:
+            scale = None
+        if scale != sc.name:
+            msg = (f"OUT {out} holds a `reproduce --scale {scale}` run; resume it with that "
+                   f"scale or give another folder for --scale {sc.name}")
+            raise ValueError(msg)
+    elif out.is_dir() and any(out.iterdir()) and not (out / "stages.json").is_file():
+        msg = f"OUT {out} is a non-empty folder that holds no reproduce run; give another folder"
+        raise ValueError(msg)
+
+
 class _Stages:
     """``OUT/stages.json``: which stages are done, with their wall times."""
 
@@ -106,7 +131,9 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
     if threads is not None:
         sc = dataclasses.replace(sc, threads=int(threads))
     out = Path(out)
+    _check_out(out, sc)
     out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / RUN_FILE, json.dumps({"scale": sc.name}, indent=2) + "\n")
     stages = _Stages(out)
     ds_path = out / "dataset"
     t_start = time.perf_counter()

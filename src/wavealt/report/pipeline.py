@@ -37,9 +37,8 @@ from wavealt.io import atomic_write_text
 from wavealt.plots import dataset_figures, deglint_figures
 from wavealt.report.html import markdown_to_html
 from wavealt.report.markdown import build_report_markdown
-from wavealt.report.scales import SCALES
+from wavealt.report.scales import SCALES, ReproduceScale
 from wavealt.sim.config import preset_config
-
 
 #: What a ``reproduce`` folder was made with: a re-run resumes it only at the same scale.
 RUN_FILE = "reproduce.json"

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import scipy.fft
@@ -29,6 +29,7 @@ class SequenceData:
     height_m: np.ndarray | None = None
 
 
+@runtime_checkable
 class Sea(Protocol):
     """A periodic sea surface that evolves in time (:class:`wavealt.sim.sea.surface.OceanSurface`,
     :class:`wavealt.sim.sea.realistic.RealisticSea`)."""
@@ -44,6 +45,7 @@ class Sea(Protocol):
         ...
 
 
+@runtime_checkable
 class Renderer(Protocol):
     """Turns one scenario into its paired clean/glinty frames.
 

@@ -13,7 +13,7 @@ import time
 import torch
 
 from wavealt.altimetry.cnn import count_parameters, create_model
-from wavealt.altimetry.train import set_num_threads
+from wavealt.altimetry.data import set_num_threads
 
 
 def _rate(model: torch.nn.Module, size: int, batch: int, batches: int, train: bool) -> float:

@@ -18,9 +18,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.io import write_video
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def main() -> None:

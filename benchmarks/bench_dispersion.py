@@ -67,8 +67,7 @@ REPO = HERE.parent
 CACHE_DIR = HERE / "cache"
 #: The simulator's modules (package-relative globs): their source is part of the cache key,
 #: so an edit to the simulator regenerates the frames.
-SIM_SOURCES = ("_checks.py", "camera.py", "scenario.py", "sensor.py", "simulate.py",
-               "realistic_sim.py", "ocean/*.py")
+SIM_SOURCES = ("_checks.py", "camera.py", "sim/*.py", "sim/sea/*.py", "sim/light/*.py")
 SIZE_PX = 256
 DEFAULT_SEEDS = (23, 31)
 DEFAULT_SEQUENCES = 200
@@ -157,7 +156,7 @@ def estimator(dispersion: str) -> Any:
 
 # -- sequences and their cache ----------------------------------------------------------------
 def sim_config(preset: str, frames: int, seed: int, sequences: int, size: int) -> Any:
-    from wavealt.scenario import preset_config
+    from wavealt.sim.config import preset_config
 
     return preset_config(preset, sequences=sequences, size=size, frames=frames, seed=seed,
                          **SCENARIO_OVERRIDES)
@@ -225,7 +224,7 @@ def save_npy(path: Path, arr: np.ndarray) -> None:
 def load_frames(cfg: Any, sc: Any, index: int, use_cache: bool) -> dict[str, np.ndarray]:
     """Clean and glinty frames of sequence ``index`` as stored (float32), from the cache when
     there; raises ``ValueError`` when the renderer rejects the scenario."""
-    from wavealt.simulate import generate_sequence
+    from wavealt.sim.generate import generate_sequence
 
     folder = cache_folder(cfg)
     paths = {c: folder / f"{index:04d}-{c}.npy" for c in CONDITIONS}

@@ -29,8 +29,8 @@ import numpy as np
 def _stream(path: Path, minutes: float) -> tuple[object, object]:
     import av
 
-    from wavealt.scenario import preset_config
-    from wavealt.simulate import generate_sequence
+    from wavealt.sim.config import preset_config
+    from wavealt.sim.generate import generate_sequence
 
     cfg = preset_config("realistic", size=256, frames=300, altitude_m=(6.0, 6.0),
                         wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3))
@@ -70,7 +70,7 @@ def main() -> None:
 
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.live import run_live
-    from wavealt.mavlink import MavlinkLink
+    from wavealt.live.mavlink import MavlinkLink
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "stream.mp4"

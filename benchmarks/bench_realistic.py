@@ -3,7 +3,7 @@
     PYTHONPATH=src python benchmarks/bench_realistic.py [--size 256] [--sequences 4] [--frames 10]
 
 Prints one JSON object.  Each preset generates ``sequences`` sequences (after one warm-up
-sequence) with :func:`wavealt.simulate.generate_sequence`; a paired frame is one clean plus
+sequence) with :func:`wavealt.sim.generate.generate_sequence`; a paired frame is one clean plus
 one glinty frame.  The stages of one realistic sequence are timed as well.
 """
 
@@ -22,8 +22,8 @@ import numpy as np  # noqa: E402
 
 
 def bench_preset(name: str, size: int, sequences: int, frames: int, **overrides) -> dict:
-    from wavealt.scenario import preset_config
-    from wavealt.simulate import generate_sequence
+    from wavealt.sim.config import preset_config
+    from wavealt.sim.generate import generate_sequence
 
     cfg = preset_config(name, size=size, frames=frames, sequences=sequences + 1, **overrides)
     generate_sequence(cfg.sample_scenario(sequences), cfg)  # warm-up (FFT plans, imports)
@@ -38,10 +38,10 @@ def bench_preset(name: str, size: int, sequences: int, frames: int, **overrides)
 def stages(size: int, frames: int) -> dict:
     import math
 
-    from wavealt.ocean.optics import sun_vector
-    from wavealt.realistic_sim import make_sea, realistic_draws, render_radiance, sensor_of
-    from wavealt.scenario import preset_config
-    from wavealt.sensor import capture_pair
+    from wavealt.sim.config import preset_config
+    from wavealt.sim.light.optics import sun_vector
+    from wavealt.sim.realistic import make_sea, realistic_draws, render_radiance
+    from wavealt.sim.sensor import capture_pair
 
     cfg = preset_config("realistic", size=size, frames=frames)
     s = cfg.sample_scenario(0)
@@ -62,7 +62,7 @@ def stages(size: int, frames: int) -> dict:
                            subpixel_slope_variance=sea.subpixel_slope_variance, glint_severity=1.0)
     out["render_s"] = time.perf_counter() - t
     t = time.perf_counter()
-    capture_pair(c, g, sensor=sensor_of(cfg), rng=0)
+    capture_pair(c, g, sensor=cfg.sensor, rng=0)
     out["sensor_jpeg_s"] = time.perf_counter() - t
     return out
 

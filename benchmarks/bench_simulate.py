@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence, simulate_dataset
+from wavealt.dataset import simulate_dataset
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def synth_rate(size: int, sequences: int, repeats: int = 3) -> dict[str, float]:

@@ -50,8 +50,8 @@ def _view(frames: np.ndarray, focal_n: float, rays: np.ndarray) -> np.ndarray:
 def scene(seed: int, index: int, max_tilt: float, frames: int) -> list[dict]:
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.camera import NadirView, pinhole, tilt_rotation
-    from wavealt.scenario import preset_config
-    from wavealt.simulate import generate_sequence
+    from wavealt.sim.config import preset_config
+    from wavealt.sim.generate import generate_sequence
 
     cfg = preset_config("realistic", size=RENDER_PX, fov_deg=RENDER_FOV_DEG, frames=frames,
                         seed=seed, altitude_m=(1.0, 15.0), wind_speed_mps=(2.0, 12.0),

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wavealt.dataset import Dataset
-from wavealt.scenario import preset_config
-from wavealt.simulate import simulate_dataset
+from wavealt.dataset import Dataset, simulate_dataset
+from wavealt.sim.config import preset_config
 
 
 @pytest.fixture(scope="session")

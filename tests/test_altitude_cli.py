@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import write_frames_folder
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.video import read_input, read_video, write_video
+from wavealt.io import read_input, read_video, write_frames_folder, write_video
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 @pytest.fixture(scope="module")
@@ -68,6 +67,31 @@ def test_json_carries_the_contract(tmp_path, run_cli, frames, velocity, mode) ->
     assert d["trusted_windows"] == int(d["trusted"]) and d["windows"] == 1
     if mode == "exact":  # the velocity is given, not fitted
         assert d["camera_velocity_mps"] == [0.0, 0.0]
+
+
+@pytest.fixture(scope="module")
+def long_frames() -> tuple[np.ndarray, float]:
+    """20 frames of 128 px at 3 m: enough waves for a fit the altimeter vouches for."""
+    cfg = preset_config("paper", size=128, frames=20, altitude_m=(3.0, 3.0),
+                        wind_speed_mps=(7.0, 7.0))
+    return generate_sequence(cfg.sample_scenario(0), cfg).clean, cfg.focal_px
+
+
+@pytest.mark.parametrize(("velocity", "mode"), [([], "blind"), (["--velocity-mps", "0,0"], "exact")])
+def test_a_trusted_estimate_is_the_true_altitude(tmp_path, run_cli, long_frames, velocity,
+                                                 mode) -> None:
+    """A hovering camera 3 m over still water: the estimate is trusted, within 5 % of 3 m
+    and within 3 of its own sigmas (a bare altitude_m > 0 would pass a broken fit)."""
+    clip, focal_px = long_frames
+    write_frames_folder(tmp_path / "f", clip)
+    code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30", "--focal-px",
+                              str(focal_px), "--dispersion", "gravity", "--json", *velocity])
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["mode"] == mode and d["trusted"] is True and d["reason"] is None
+    assert abs(d["altitude_m"] - 3.0) < 0.05 * 3.0
+    assert abs(d["altitude_m"] - 3.0) <= 3.0 * d["altitude_std_m"]
+    assert 0.0 < d["altitude_std_m"] < 0.1 * 3.0
 
 
 def test_text_output_says_whether_to_trust_it(tmp_path, run_cli, frames) -> None:
@@ -173,7 +197,7 @@ def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
     assert code == 2 and "not found" in err
     folder = tmp_path / "mixed"
     write_frames_folder(folder, frames[0][:3])
-    from wavealt.dataset import write_png
+    from wavealt.io import write_png
     write_png(folder / "frame_999.png", np.zeros((32, 32, 3), np.float32))
     code, _, err = run_cli(["altitude", str(folder), "--fps", "30", "--focal-px", "50"])
     assert code == 2 and "different sizes" in err

@@ -11,10 +11,17 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter
-from wavealt.camera import (Calibration, NadirView, pinhole, read_attitude, read_calibration,
-                            tilt_rotation, write_calibration)
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
+from wavealt.camera import (
+    Calibration,
+    NadirView,
+    pinhole,
+    read_attitude,
+    read_calibration,
+    tilt_rotation,
+    write_calibration,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 K = np.array([[410.0, 0.0, 322.5], [0.0, 412.0, 238.0], [0.0, 0.0, 1.0]])
 D = np.array([-0.28, 0.09, 0.001, -0.0005, -0.01])
@@ -189,7 +196,7 @@ def test_per_frame_attitude_levels_every_frame_alike() -> None:
 
 
 def test_cli_levels_a_tilted_clip_from_its_calibration(tmp_path, run_cli) -> None:
-    from wavealt.dataset import write_frames_folder
+    from wavealt.io import write_frames_folder
 
     h, roll, pitch = 6.0, -8.0, 12.0
     nadir, sc, cfg = _scene("paper", h, 1)

@@ -5,8 +5,13 @@ from __future__ import annotations
 import pytest
 import torch
 
-from wavealt.altimetry.cnn import (MIN_INPUT_PX, MODELS, count_parameters, create_model,
-                                   load_pretrained)
+from wavealt.altimetry.cnn import (
+    MIN_INPUT_PX,
+    MODELS,
+    count_parameters,
+    create_model,
+    load_pretrained,
+)
 
 
 def test_resnet50_torchvision_names_and_parameter_count() -> None:

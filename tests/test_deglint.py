@@ -8,13 +8,24 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import Dataset, write_png
+from wavealt.dataset import Dataset, simulate_dataset
 from wavealt.deglint import (
-    METHODS, apply_method, condition_name, deglint_dataset, glint_mask, mae, method_names,
-    psnr_db, sliding_min_stream, ssim, temporal_minimum, tmf_residual, window_bounds,
+    METHODS,
+    apply_method,
+    condition_name,
+    deglint_dataset,
+    glint_mask,
+    mae,
+    method_names,
+    psnr_db,
+    sliding_min_stream,
+    ssim,
+    temporal_minimum,
+    tmf_residual,
+    window_bounds,
 )
-from wavealt.scenario import preset_config
-from wavealt.simulate import simulate_dataset
+from wavealt.io import write_png
+from wavealt.sim.config import preset_config
 
 DTYPES = (np.uint8, np.float32)
 # a clean-image method on a glint-free smooth sequence may move a pixel by at most this much

@@ -8,8 +8,10 @@ import json
 import pytest
 import torch
 
+from wavealt.altimetry.data import TrainConfig
 from wavealt.altimetry.device import autocast, precision, resolve_device, to_device
-from wavealt.altimetry.train import TrainConfig, load_run, train
+from wavealt.altimetry.predict import load_run
+from wavealt.altimetry.train import train
 
 TINY = dict(model="resnet-tiny", batch_size=8, lr=3e-3, jitter=0.0)
 no_cuda = pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")

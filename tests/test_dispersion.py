@@ -8,11 +8,15 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import (
-    TRUSTED_QUALITY, DispersionAltimeter, DispersionResult, _wrap, estimate_altitude,
+    TRUSTED_QUALITY,
+    DispersionAltimeter,
+    DispersionResult,
+    _wrap,
+    estimate_altitude,
 )
 from wavealt.altimetry.series import altitude_series
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def _linear_frames(h: float, wind: float, speed: float, direction: float, *, size: int = 64,

@@ -16,8 +16,8 @@ from wavealt.altimetry.dispersion import (
     DispersionAltimeter,
     DispersionResult,
 )
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 FOCAL_PX = 200.0
 

@@ -10,8 +10,14 @@ import numpy as np
 import pytest
 
 from wavealt.dataset import Dataset
-from wavealt.evaluation import (METRIC_KEYS, ConstantEstimator, altitude_metrics, evaluate,
-                                parse_estimator, train_split_mean_m)
+from wavealt.evaluation import (
+    METRIC_KEYS,
+    ConstantEstimator,
+    altitude_metrics,
+    evaluate,
+    parse_estimator,
+    train_split_mean_m,
+)
 
 
 def test_metrics_match_hand_computed_example() -> None:
@@ -52,7 +58,8 @@ def test_constant_baseline_is_exact(tiny_dataset, tmp_path) -> None:
 
 
 def test_cnn_estimator_and_figures(tiny_dataset, tmp_path) -> None:
-    from wavealt.altimetry.train import TrainConfig, train
+    from wavealt.altimetry.data import TrainConfig
+    from wavealt.altimetry.train import train
 
     run = tmp_path / "run"
     train(tiny_dataset, run, TrainConfig(condition="bright", model="resnet-tiny", epochs=1,
@@ -109,7 +116,7 @@ def test_incomplete_condition_is_skipped_and_refused(tiny_dataset, tmp_path) -> 
 
 def test_dispersion_relation_follows_the_renderer(tiny_dataset) -> None:
     from wavealt.evaluation import DispersionEstimator, dispersion_of
-    from wavealt.scenario import preset_config
+    from wavealt.sim.config import preset_config
 
     assert dispersion_of(preset_config("paper", sequences=6, size=64)) == "gravity"
     assert dispersion_of(preset_config("realistic", sequences=6, size=64)) == "gravity-capillary"
@@ -193,3 +200,11 @@ def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> N
     assert "The sequences it trusts (it flags the others itself: not trusted)" in table
     flagged = res.metrics["clean"]["flagged"]
     assert f"| Clean | {flagged} of {len(truth)} |" in table
+
+
+def test_printed_numbers_never_read_minus_zero() -> None:
+    from wavealt.evaluation import fmt
+
+    assert fmt(-0.001) == "0.00" and fmt(-0.001, signed=True) == "+0.00"
+    assert fmt(-0.004, signed=True, digits=2) == "+0.00" and fmt(-0.006, signed=True) == "-0.01"
+    assert fmt(float("nan")) == "—" and fmt(None) == "—" and fmt(1.234, digits=1) == "1.2"

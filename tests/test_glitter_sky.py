@@ -15,12 +15,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wavealt.ocean.glitter import (
-    cox_munk_glint, glint_reflectance, whitecap_field, whitecap_fraction,
+from wavealt.sim.light.glitter import (
+    cox_munk_glint,
+    glint_reflectance,
+    whitecap_field,
+    whitecap_fraction,
 )
-from wavealt.ocean.optics import sun_vector
-from wavealt.ocean.realistic import RealisticSea, SeaSpectrum
-from wavealt.ocean.sky import SkyModel, reflect
+from wavealt.sim.light.optics import sun_vector
+from wavealt.sim.light.sky import SkyModel, reflect
+from wavealt.sim.sea.realistic import RealisticSea, SeaSpectrum
 
 N_WATER = 1.34
 

@@ -16,10 +16,10 @@ import time
 import numpy as np
 import pytest
 
+from wavealt.io import write_video
 from wavealt.live import LIVE_COLUMNS, run_live
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def _clip(path, *, frames: int = 60, size: int = 64, times_s=None):
@@ -140,7 +140,7 @@ def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) 
 def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     from test_mavlink import _free_port
 
-    from wavealt.mavlink import use_mavlink2
+    from wavealt.live.mavlink import use_mavlink2
 
     mavutil = use_mavlink2()
     sc, cfg = _clip(tmp_path / "clip.mp4", frames=90)

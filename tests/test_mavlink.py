@@ -11,11 +11,17 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.mavlink import (COVARIANCE_UNKNOWN, SIGNAL_INVALID, MavlinkLink, distance_fields,
-                             ned_to_image, use_mavlink2)
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.video import write_video
+from wavealt.io import write_video
+from wavealt.live.mavlink import (
+    COVARIANCE_UNKNOWN,
+    SIGNAL_INVALID,
+    MavlinkLink,
+    distance_fields,
+    ned_to_image,
+    use_mavlink2,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 mavutil = use_mavlink2()  # the autopilot's end speaks MAVLink 2, as ArduPilot and PX4 do
 M = mavutil.mavlink

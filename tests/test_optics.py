@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from wavealt.camera import Camera
-from wavealt.ocean.optics import Optics, fresnel_unpolarised, render_pair, shade, sun_vector
+from wavealt.sim.light.optics import (
+    Optics,
+    fresnel_unpolarised,
+    render_pair,
+    shade,
+    sun_vector,
+)
 
 
 def test_fresnel_limits_and_brewster():

@@ -4,12 +4,13 @@ replaced without being asked to."""
 from __future__ import annotations
 
 import os
+import shutil
 import stat
 
 import numpy as np
 import pytest
 
-from wavealt.dataset import atomic_save_npz, atomic_write_text
+from wavealt.io import atomic_save_npz, atomic_write_text, write_frames_folder
 
 
 @pytest.fixture
@@ -28,7 +29,21 @@ def test_atomic_writes_respect_the_umask(tmp_path, umask, mask, mode) -> None:
     atomic_save_npz(tmp_path / "b.npz", x=np.zeros(3))
     for name in ("a.json", "b.npz"):
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == mode
+    # a frame folder is written under a temporary name (mkdtemp: 0o700) and renamed
+    write_frames_folder(tmp_path / "seq", np.zeros((2, 4, 4, 3), np.float32))
+    assert stat.S_IMODE((tmp_path / "seq").stat().st_mode) == mode | (0o111 & ~mask)
+    assert stat.S_IMODE((tmp_path / "seq" / "frame_000.png").stat().st_mode) == mode
 
+
+def test_a_commands_outputs_respect_the_umask(tiny_dataset, tmp_path, umask, run_cli) -> None:
+    umask(0o027)
+    out = tmp_path / "eval"
+    assert run_cli(["evaluate", str(tiny_dataset), "--estimator", "constant", "--out", str(out),
+                    "--conditions", "clean"])[0] == 0
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in out.iterdir()}
+    assert {"metrics.json", "predictions.csv", "table.md",
+            "fig5_predicted_vs_actual.png"} <= set(modes)
+    assert set(modes.values()) == {0o640}, modes
 
 
 
@@ -53,5 +68,26 @@ def test_train_resume_needs_a_run(tiny_dataset, tmp_path, run_cli) -> None:
     run = tmp_path / "run"
     code, _, err = run_cli(["train", str(tiny_dataset), "--out", str(run), "--resume",
                               "--model", "resnet-tiny", "--epochs", "1"])
-    assert code == 2 and "holds no training run to continue" in err
-    assert not run.exists()
+    assert code == 2 and err.count("\n") == 1
+    assert err == (f"wavealt: error: --resume: {run} holds no training run to continue "
+                   "(drop --resume to start one)\n")
+    assert "resume=True" not in err and not run.exists()
+
+
+def test_deglint_refuses_another_window_and_a_window_longer_than_the_sequences(
+        tiny_dataset, tmp_path, run_cli) -> None:
+    ds = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, ds)
+    base = ["deglint", str(ds), "--method", "tmf-min", "--no-figures"]
+    assert run_cli([*base, "--window", "3"])[0] == 0
+    before = sorted((ds / "tmf-min").rglob("*.png"))
+    stamp = [p.stat().st_mtime_ns for p in before]
+    code, _, err = run_cli([*base, "--window", "2"])
+    assert code == 2 and err.count("\n") == 1
+    assert "condition tmf-min was made with method tmf-min, window 3; --force rewrites it" in err
+    assert [p.stat().st_mtime_ns for p in before] == stamp  # nothing replaced
+    code, _, err = run_cli([*base, "--window", "50"])
+    assert code == 2 and err.count("\n") == 1
+    assert "window 50 is longer than the sequences (4 frames); use --window <= 4" in err
+    assert run_cli([*base, "--window", "2", "--force"])[0] == 0
+    assert run_cli([*base, "--window", "2"])[0] == 0  # the same settings: resumed, not refused

@@ -8,11 +8,21 @@ import numpy as np
 import pytest
 import scipy.fft
 
-from wavealt.ocean.realistic import (
-    K_M_RADPM, K_MAX_RADPM, RealisticSea, SeaSpectrum, cos2s_spreading, elfouhaily_omni,
-    elfouhaily_spreading, jonswap_omni,
+from wavealt.sim.sea.realistic import (
+    K_M_RADPM,
+    K_MAX_RADPM,
+    RealisticSea,
+    SeaSpectrum,
+    cos2s_spreading,
+    elfouhaily_omni,
+    elfouhaily_spreading,
+    jonswap_omni,
 )
-from wavealt.ocean.spectrum import cox_munk_slope_variance, deep_water_omega, gravity_capillary_omega
+from wavealt.sim.sea.spectrum import (
+    cox_munk_slope_variance,
+    deep_water_omega,
+    gravity_capillary_omega,
+)
 
 FOCAL_PX = 221.7  # 256 px across a 60 deg field of view
 

@@ -7,15 +7,17 @@ import json
 import numpy as np
 import pytest
 
-from wavealt.scenario import PRESETS, SimConfig, preset_config
-from wavealt.simulate import generate_sequence, simulate_dataset
+from wavealt.dataset import simulate_dataset
+from wavealt.sim.config import PRESETS, SimConfig, preset_config
+from wavealt.sim.generate import generate_sequence
 
-PAPER_KEYS = {
-    "preset", "sequences", "frames", "size", "fov_deg", "fps", "seed", "split_seed", "split",
-    "altitude_m", "wind_speed_mps", "wind_dir_deg", "sun_zenith_deg", "sun_azimuth_deg",
-    "glint_severity", "camera_speed_mps", "camera_dir_deg", "clean_glint_severity", "domain_pad",
-    "water_rgb", "sky_rgb", "display_rgb", "contrast", "refractive_index", "lobe_exponent",
+COMMON_KEYS = {
+    "preset", "renderer", "sequences", "frames", "size", "fov_deg", "fps", "seed", "split_seed",
+    "split", "altitude_m", "wind_speed_mps", "wind_dir_deg", "sun_zenith_deg", "sun_azimuth_deg",
+    "glint_severity", "camera_speed_mps", "camera_dir_deg", "domain_pad", "refractive_index",
 }
+PAPER_KEYS = {"water_rgb", "sky_rgb", "display_rgb", "contrast", "lobe_exponent",
+              "clean_glint_severity"}
 
 
 def small(name: str = "realistic", **kw) -> SimConfig:
@@ -23,13 +25,15 @@ def small(name: str = "realistic", **kw) -> SimConfig:
     return preset_config(name, **kw)
 
 
-def test_paper_config_dict_is_unchanged_and_round_trips():
+def test_config_dict_is_common_plus_the_renderers_sections_and_round_trips():
     cfg = small("paper")
-    assert set(cfg.to_dict()) == PAPER_KEYS
+    d = cfg.to_dict()
+    assert set(d) == COMMON_KEYS | {"paper"} and set(d["paper"]) == PAPER_KEYS
     assert SimConfig.from_dict(cfg.to_dict()) == cfg
     real = small()
     d = real.to_dict()
-    assert d["renderer"] == "realistic" and d["compression"] == "jpeg"
+    assert set(d) == COMMON_KEYS | {"realistic", "sensor"}
+    assert d["renderer"] == "realistic" and d["sensor"]["compression"] == "jpeg"
     assert SimConfig.from_dict(json.loads(json.dumps(d))) == real
 
 
@@ -38,7 +42,8 @@ def test_preset_spans_calm_to_fresh_high_to_low_sun_up_to_15_m():
     assert p["altitude_m"][1] == 15.0
     assert p["wind_speed_mps"][0] <= 2.0 and p["wind_speed_mps"][1] >= 10.0
     assert p["sun_zenith_deg"][0] <= 10.0 and p["sun_zenith_deg"][1] >= 70.0
-    assert p["camera_speed_mps"][1] > 0 and p["roll_deg"][1] > 0 and p["pitch_deg"][1] > 0
+    assert p["camera_speed_mps"][1] > 0
+    assert p["realistic"]["roll_deg"][1] > 0 and p["realistic"]["pitch_deg"][1] > 0
 
 
 @pytest.mark.parametrize(("overrides", "message"), [
@@ -113,7 +118,7 @@ def test_altitude_reaches_the_sea_only_through_the_grid_spacing():
     is the GSD, and the slope budget is the same physical total at every altitude."""
     import dataclasses
 
-    from wavealt.realistic_sim import make_sea, realistic_draws
+    from wavealt.sim.realistic import make_sea, realistic_draws
 
     cfg = small(size=64)
     base = cfg.sample_scenario(0)
@@ -128,3 +133,12 @@ def test_altitude_reaches_the_sea_only_through_the_grid_spacing():
     totals = [s.resolved_slope_variance + s.long_slope_variance + s.subpixel_slope_variance
               for s in seas]
     np.testing.assert_allclose(totals, seas[0].spectrum.slope_variance, rtol=1e-9)
+
+
+def test_a_folder_of_another_renderer_is_refused_naming_the_difference(tmp_path):
+    out = simulate_dataset(tmp_path / "ds", small(sequences=1, frames=2, size=32,
+                                                  compression="none"), progress=False)
+    with pytest.raises(ValueError, match=r"holds a dataset made with a different config \(.*"
+                                         r"renderer: 'realistic' -> 'paper'.*"
+                                         r"sensor.compression: 'none' -> '-'"):
+        simulate_dataset(out, small("paper", sequences=1, frames=2, size=32), progress=False)

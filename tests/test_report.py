@@ -25,6 +25,32 @@ def test_html_is_self_contained(tmp_path) -> None:
     assert 'src="f.png"' not in page
 
 
+def test_html_renders_lists_emphasis_and_code_not_their_markup(tmp_path) -> None:
+    md = ("Intro with *emphasis*, **strong** and `code`.\n\n- first item\n- second item\n\n"
+          "![missing](nope.png)\n")
+    page = markdown_to_html(md, base=tmp_path)
+    assert "<em>emphasis</em>" in page and "<strong>strong</strong>" in page
+    assert "<code>code</code>" in page
+    assert "<ul>" in page and "<li>first item</li>" in page
+    assert "- first" not in page and "*emphasis*" not in page
+    assert 'src="nope.png"' in page  # a missing figure keeps its link, no crash
+
+
+def test_reproduce_resumes_its_own_scale_only(tmp_path, run_cli) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "reproduce.json").write_text('{"scale": "quick"}')
+    code, _, err = run_cli(["reproduce", str(out), "--scale", "paper"])
+    assert code == 2 and err.count("\n") == 1
+    assert f"OUT {out} holds a `reproduce --scale quick` run" in err and "--scale paper" in err
+    junk = tmp_path / "junk"
+    junk.mkdir()
+    (junk / "notes.txt").write_text("keep")
+    code, _, err = run_cli(["reproduce", str(junk)])
+    assert code == 2 and "holds no reproduce run" in err
+    assert sorted(p.name for p in junk.iterdir()) == ["notes.txt"]
+
+
 def test_scales_label_quick_as_not_the_paper() -> None:
     assert SCALES["paper"].model == "resnet50" and SCALES["paper"].size == 224
     assert SCALES["paper"].epochs == 30 and SCALES["paper"].batch_size == 32
@@ -100,6 +126,34 @@ def test_side_by_side_lists_every_method_and_condition_and_judges_the_baseline()
     assert "**beats it on" not in bare and "no per-sequence predictions to test on Clean" in bare
 
 
+def test_report_opens_with_a_verdict_paragraph_from_the_paired_test() -> None:
+    from wavealt.report import verdict_paragraph
+
+    ids = [f"s{i}" for i in range(20)]
+    rng = np.random.default_rng(3)
+    base = dict(zip(ids, rng.uniform(1.5, 2.5, 20)))
+    evals = {"cnn-clean": _ev("cnn (trained on clean)", {"clean": 1.9, "glinty": 1.0}),
+             "dispersion": _ev("dispersion (gravity)", {"clean": 0.5, "glinty": 3.0}),
+             "constant": _ev("constant", {"clean": 2.0, "glinty": 2.0}, label="constant 3 m")}
+    for e in evals.values():
+        for v in e["metrics"].values():
+            v["n"] = 20
+    errors = {"constant": {"clean": base, "glinty": base},
+              # a 0.1 m lower median-like MAE inside +-1 m noise: not a win
+              "cnn-clean": {"clean": {k: max(0.0, v - 0.1 + rng.uniform(-1, 1))
+                                      for k, v in base.items()},
+                            "glinty": {k: v - 1.0 for k, v in base.items()}},
+              "dispersion": {"clean": {k: v - 1.5 for k, v in base.items()},
+                             "glinty": {k: v + 1.0 for k, v in base.items()}}}
+    lines = verdict_paragraph(evals, errors)
+    assert lines[0] == "## Verdict" and len(lines) == 4  # heading, blank, one paragraph, blank
+    text = lines[2]
+    assert "95 % paired bootstrap interval of the MAE difference over the same 20 test" in text
+    assert "cnn (trained on clean) on Glinty" in text
+    assert "dispersion (gravity) on Clean (but is worse on Glinty)" in text
+    assert "Clean" not in text.split("cnn (trained on clean) on ")[1].split(";")[0]
+
+
 def test_paired_bootstrap_of_the_mae_difference() -> None:
     from wavealt.evaluation import paired_mae_difference
 
@@ -155,6 +209,7 @@ def test_reproduce_end_to_end_at_a_tiny_scale(tmp_path, monkeypatch) -> None:
     out = tmp_path / "out"
     md_path, html_path = reproduce(out, scale="tiny", progress=False)
     md = md_path.read_text()
+    assert json.loads((out / "reproduce.json").read_text()) == {"scale": "tiny"}
     stages = json.loads((out / "stages.json").read_text())
     assert all(v["status"] == "done" for v in stages.values()), stages
     rows = {line.split(" | ")[0] for line in md.split("### MAE (m)")[1].split("###")[0].splitlines()
@@ -168,6 +223,8 @@ def test_reproduce_end_to_end_at_a_tiny_scale(tmp_path, monkeypatch) -> None:
     header = next(line for line in md.splitlines() if line.startswith("| Method |"))
     assert header == "| Method | Clean | Glinty | Residual (TMF) | tmf-min |"
     assert "## What beats the constant baseline" in md and "## Deglint quality" in md
+    assert md.split("\n## ")[1].startswith("Verdict")  # the report opens with its verdict
+    assert "-0.00" not in md
     assert (out / "figures" / "fig4_tmf_decomposition.png").is_file()
     assert "data:image/png;base64," in html_path.read_text()
     # a re-run redoes nothing and gives the same tables

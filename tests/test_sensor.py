@@ -8,9 +8,15 @@ import numpy as np
 import pytest
 
 from wavealt.camera import Camera
-from wavealt.sensor import (
-    SensorModel, attitude_view_vectors, capture_pair, encode, expose_and_read, srgb_decode,
-    srgb_encode, vignetting_map,
+from wavealt.sim.sensor import (
+    SensorModel,
+    attitude_view_vectors,
+    capture_pair,
+    encode,
+    expose_and_read,
+    srgb_decode,
+    srgb_encode,
+    vignetting_map,
 )
 
 

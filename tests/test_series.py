@@ -9,9 +9,14 @@ import json
 import numpy as np
 import pytest
 
-from wavealt.altimetry.series import CSV_COLUMNS, NO_TRUSTED_WINDOW, altitude_series, summarize
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
+from wavealt.altimetry.series import (
+    CSV_COLUMNS,
+    NO_TRUSTED_WINDOW,
+    altitude_series,
+    summarize,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 H_M = 3.0
 

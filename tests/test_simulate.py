@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from wavealt.cli import main
-from wavealt.dataset import Dataset, read_frames_folder, read_manifest
-from wavealt.scenario import SimConfig, derive_seed, preset_config
-from wavealt.simulate import generate_sequence, simulate_dataset
+from wavealt.dataset import Dataset, read_manifest, simulate_dataset
+from wavealt.io import read_frames_folder
+from wavealt.sim.config import SimConfig, derive_seed, preset_config
+from wavealt.sim.generate import generate_sequence
 
 SMALL = dict(sequences=5, size=48, frames=4)
 
@@ -161,11 +162,42 @@ def test_version(capsys):
     assert "wavealt 0.1.0" in out and "numpy" in out and "torch" in out
 
 
+def test_top_level_help_shows_every_description_whole(capsys):
+    main(["--help"])
+    out = capsys.readouterr().out
+    commands = out.split("Commands:")[1].strip().splitlines()
+    assert {c.split()[0] for c in commands} == {"altitude", "deglint", "evaluate", "figures",
+                                                 "reproduce", "simulate", "train"}
+    assert "..." not in out.split("Commands:")[1]
+    assert "Draw the dataset figures (paper Fig. 2 and Fig. 3)." in out
+
+
 def test_config_rejects_unknown_keys():
     d = preset_config("paper").to_dict()
     d["altitdue_m"] = [1, 2]
     with pytest.raises(ValueError, match="unknown config key.*altitdue_m"):
         SimConfig.from_dict(d)
+    d = preset_config("realistic").to_dict()
+    d["sensor"]["jpeg_qualty"] = 80
+    with pytest.raises(ValueError, match="unknown sensor config key.*jpeg_qualty"):
+        SimConfig.from_dict(d)
+
+
+def test_config_is_nested_per_renderer_and_reads_the_flat_format_1():
+    paper = preset_config("paper", **SMALL)
+    d = paper.to_dict()
+    assert set(d) & {"paper", "realistic", "sensor"} == {"paper"}  # only what it reads
+    assert "water_rgb" in d["paper"] and "water_rgb" not in d
+    real = preset_config("realistic", **SMALL)
+    assert {"realistic", "sensor"} <= set(real.to_dict())
+    assert real.sensor.compression == "jpeg" and real.realistic.whitecaps is True
+    # dataset.json of format 1 held one flat config
+    flat = {k: v for k, v in d.items() if k != "paper"} | d["paper"]
+    assert SimConfig.from_dict(flat) == paper
+    assert SimConfig.from_dict(json.loads(json.dumps(real.to_dict()))) == real
+    # a sub-config's field can be set alone or as a nested change
+    assert (preset_config("realistic", compression="none")
+            == preset_config("realistic", sensor={"compression": "none"}))
 
 
 def test_read_frames_errors(tmp_path):
@@ -178,7 +210,7 @@ def test_read_frames_errors(tmp_path):
 
 
 def test_non_finite_render_is_refused_and_earlier_sequences_kept(tmp_path, monkeypatch):
-    import wavealt.simulate as sim
+    import wavealt.sim.paper as sim
 
     real = sim.render_pair
     calls = {"n": 0}

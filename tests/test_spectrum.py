@@ -1,8 +1,12 @@
 import numpy as np
 import pytest
 
-from wavealt.ocean.spectrum import (
-    GRAVITY_MPS2, cox_munk_slope_variance, deep_water_omega, gravity_capillary_omega, phillips,
+from wavealt.sim.sea.spectrum import (
+    GRAVITY_MPS2,
+    cox_munk_slope_variance,
+    deep_water_omega,
+    gravity_capillary_omega,
+    phillips,
 )
 
 

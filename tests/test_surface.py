@@ -3,8 +3,8 @@ import pytest
 import scipy.fft
 
 from wavealt.camera import Camera
-from wavealt.ocean.spectrum import cox_munk_slope_variance, deep_water_omega
-from wavealt.ocean.surface import OceanSurface
+from wavealt.sim.sea.spectrum import cox_munk_slope_variance, deep_water_omega
+from wavealt.sim.sea.surface import OceanSurface
 
 
 def make(n=128, dx=0.02, wind=5.0, wdir=0.4, rng=0):

@@ -9,12 +9,17 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.series import altitude_series
-from wavealt.dataset import read_frames_folder, write_png
-from wavealt.scenario import preset_config
-from wavealt.simulate import generate_sequence
-from wavealt.video import nominal_rate, read_clip, read_frame_times, regular_runs, write_video
-
-
+from wavealt.io import (
+    nominal_rate,
+    read_clip,
+    read_frame_times,
+    read_frames_folder,
+    regular_runs,
+    write_png,
+    write_video,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
 
 
 def _levels(n: int, size: int = 16) -> np.ndarray:

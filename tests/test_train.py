@@ -9,8 +9,9 @@ import pytest
 import torch
 
 from wavealt.altimetry import train as train_mod
-from wavealt.altimetry.train import (TrainConfig, augment, centre_crop, load_run, to_model_input,
-                                     train)
+from wavealt.altimetry.data import TrainConfig, augment, centre_crop, to_model_input
+from wavealt.altimetry.predict import load_run
+from wavealt.altimetry.train import train
 from wavealt.dataset import Dataset
 
 TINY = dict(model="resnet-tiny", batch_size=8, lr=3e-3, jitter=0.0)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -80,6 +82,15 @@ def check_frames(frames: Any, *, name: str = "frames", min_frames: int = 1,
     return arr
 
 
+def check_rgb(name: str, value: Any) -> tuple[float, float, float]:
+    """Three finite non-negative numbers (R, G, B); return them as a tuple of floats."""
+    if len(value) != 3:
+        msg = f"{name} must have 3 components (R, G, B); got {value!r}"
+        raise ValueError(msg)
+    r, g, b = (check_finite_number(name, x, low=0.0) for x in value)
+    return r, g, b
+
+
 def check_known_keys(d: dict[str, Any], names: set[str], *, what: str = "config") -> None:
     """Reject keys of ``d`` outside ``names``: a typo in a config must fail loudly."""
     unknown = sorted(set(d) - names)
@@ -99,9 +110,6 @@ def check_choice(name: str, value: Any, choices: Any) -> Any:
 def read_csv_rows(path: Any, columns: tuple[str, ...], what: str) -> list[dict[str, str]]:
     """The rows of a CSV file with a header that holds ``columns``; a missing file or column
     is a one-line error naming ``what`` the file is (e.g. ``"attitude file"``)."""
-    import csv
-    from pathlib import Path
-
     path = Path(path)
     if not path.is_file():
         msg = f"{what} not found: {path}"

@@ -1,4 +1,4 @@
-"""The dataset folder (DESIGN.md): read, write, resume, and the manifest.
+"""The dataset folder: read, write (a simulated one), resume, and the manifest.
 
 ```
 DATASET/
@@ -9,8 +9,9 @@ DATASET/
   surface/<sequence_id>.npz           (``--save-surface``) height_m, slope_x, slope_y
 ```
 
-Every write is atomic: a sequence folder is written under a temporary name and renamed,
-``dataset.json`` / ``manifest.csv`` are written to a temporary file and replaced.
+Every write is atomic (:mod:`wavealt.io`): a sequence folder is written under a temporary
+name and renamed, ``dataset.json`` / ``manifest.csv`` are written to a temporary file and
+replaced.
 """
 
 from __future__ import annotations
@@ -18,23 +19,29 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import shutil
-import tempfile
+import multiprocessing as mp
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from tqdm import tqdm
 
 from wavealt import __version__
-from wavealt._checks import check_frames, read_csv_rows
-from wavealt.scenario import Scenario, SimConfig
+from wavealt._checks import read_csv_rows
+from wavealt.io import (
+    atomic_save_npz,
+    atomic_write_text,
+    read_frames_folder,
+    write_frames_folder,
+)
+from wavealt.sim.config import Scenario, SimConfig
+from wavealt.sim.generate import generate_sequence
 
 FORMAT = "wavealt-dataset"
-FORMAT_VERSION = 1
+#: 2: the config's renderer and sensor settings are nested objects (1: flat; still read)
+FORMAT_VERSION = 2
 MANIFEST_COLUMNS = ("sequence_id", "split", "altitude_m", "wind_speed_mps", "wind_dir_deg",
                     "sun_zenith_deg", "sun_azimuth_deg", "glint_severity", "fps", "focal_px",
                     "frames", "seed", "camera_speed_mps", "camera_dir_deg")
@@ -46,136 +53,6 @@ BASE_CONDITIONS = {
 
 def sequence_id(index: int) -> str:
     return f"seq_{index:05d}"
-
-
-# -- images -----------------------------------------------------------------------------
-def to_uint8(frames: np.ndarray) -> np.ndarray:
-    """Float frames in [0, 1] to uint8, rounding to nearest."""
-    return np.round(np.clip(frames, 0.0, 1.0) * 255.0).astype(np.uint8)
-
-
-def write_png(path: Path, image: np.ndarray) -> None:
-    """Write one ``(H, W, 3)`` frame (float in [0, 1] or uint8) as an 8-bit RGB PNG."""
-    img = image if image.dtype == np.uint8 else to_uint8(image)
-    Image.fromarray(img, mode=None).save(path, format="PNG", compress_level=1)
-
-
-def read_png(path: Path) -> np.ndarray:
-    """Read an image file as ``(H, W, 3)`` float32 in [0, 1]."""
-    path = Path(path)
-    if not path.is_file():
-        msg = f"image file not found: {path}"
-        raise FileNotFoundError(msg)
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im.convert("RGB"), dtype=np.uint8)
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
-        msg = f"cannot read image {path}: {exc}"
-        raise ValueError(msg) from None
-    return arr.astype(np.float32) / 255.0
-
-
-def frame_files(folder: Path) -> list[Path]:
-    """Image files of a frame folder in natural order (``frame_2`` before ``frame_10``)."""
-    from natsort import natsorted
-
-    exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
-    return natsorted((p for p in Path(folder).iterdir()
-                      if p.suffix.lower() in exts and p.is_file()), key=lambda p: p.name)
-
-
-def read_frames_folder(folder: Path | str) -> np.ndarray:
-    """Read every image of ``folder`` (natural order) as ``(T, H, W, 3)`` float32."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        msg = f"frame folder not found: {folder}"
-        raise FileNotFoundError(msg)
-    files = frame_files(folder)
-    if not files:
-        msg = f"frame folder {folder} holds no image files"
-        raise ValueError(msg)
-    frames = [read_png(p) for p in files]
-    shapes = {f.shape for f in frames}
-    if len(shapes) > 1:
-        msg = f"frames in {folder} have different sizes: {sorted(shapes)}"
-        raise ValueError(msg)
-    return np.stack(frames)
-
-
-def write_frames_folder(folder: Path | str, frames: np.ndarray) -> None:
-    """Write ``(T, H, W, 3)`` frames as ``frame_000.png`` ... atomically.
-
-    The frames go to a temporary sibling folder which is renamed to ``folder``; an existing
-    ``folder`` is replaced only once the new one is complete.
-    """
-    frames = check_frames(frames)
-    folder = Path(folder)
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
-    try:
-        for t, frame in enumerate(frames):
-            write_png(tmp / f"frame_{t:03d}.png", frame)
-        if folder.exists():
-            old = folder.with_name(f".{folder.name}.old-{os.getpid()}")
-            folder.rename(old)
-            tmp.rename(folder)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(folder)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def publish(tmp: Path | str, path: Path | str) -> None:
-    """Move a finished temporary file onto ``path`` with the permissions a plain ``open``
-    would give it (``0o666`` less the umask; ``mkstemp`` makes files ``0o600``)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
-
-
-def check_output_folder(out: Path | str, names: Iterable[str], *, force: bool = False,
-                        what: str | None = None) -> Path:
-    """The one overwrite rule of every command: ``out`` must be a folder (or not exist yet),
-    and one that already holds any of ``names`` is refused unless ``force`` — before any
-    work, so nothing written earlier is replaced silently. ``what`` names the earlier
-    result in the message (default: the files found)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out} is a file; give a folder"
-        raise ValueError(msg)
-    held = [n for n in names if (out / n).exists()]
-    if held and not force:
-        msg = f"--out {out} already holds {what or ', '.join(held)}; use another folder or --force"
-        raise ValueError(msg)
-    return out
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
-        np.savez_compressed(tmp, **arrays)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 # -- manifest ---------------------------------------------------------------------------
@@ -353,3 +230,90 @@ def ids_missing(root: Path, records: Iterable[SequenceRecord], conditions: Itera
 def records_of_index(config: SimConfig, index: int) -> SequenceRecord:
     """Manifest row ``index`` of a config, without building the others."""
     return SequenceRecord(sequence_id(index), config.splits()[index], config.sample_scenario(index))
+
+
+# -- a simulated dataset to disk --------------------------------------------------------
+def _write_one(args: tuple[str, dict, int, bool]) -> int:
+    root_s, cfg_dict, index, save_surface = args
+    root = Path(root_s)
+    config = SimConfig.from_dict(cfg_dict)
+    rec = records_of_index(config, index)
+    need = [c for c in ("clean", "glinty") if not (root / c / rec.sequence_id).is_dir()]
+    surf_path = root / "surface" / f"{rec.sequence_id}.npz"
+    need_surface = save_surface and not surf_path.is_file()
+    if not need and not need_surface:
+        return index
+    data = generate_sequence(rec.scenario, config, with_height=need_surface)
+    for c in need:
+        write_frames_folder(root / c / rec.sequence_id, getattr(data, c))
+    if need_surface:
+        atomic_save_npz(surf_path, height_m=data.height_m, slope_x=data.slope_x,
+                        slope_y=data.slope_y)
+    return index
+
+
+def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A nested config dict as ``{"sensor.compression": ..., ...}`` (for messages)."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
+                     save_surface: bool = False, progress: bool = True) -> Path:
+    """Write the dataset of ``config`` to ``out`` (the layout in this module's docstring).
+
+    Resumes: sequences already complete are kept; a folder holding a dataset of another
+    config is refused untouched.  ``workers`` processes give the same bytes as one.
+    """
+    out = Path(out)
+    if int(workers) != workers or workers < 1:
+        msg = f"workers must be a positive integer; got {workers!r}"
+        raise ValueError(msg)
+    if out.exists() and not out.is_dir():
+        msg = f"OUT {out} is an existing file; give a folder for the dataset"
+        raise ValueError(msg)
+    if (out / "dataset.json").is_file():
+        existing = Dataset(out).config
+        if existing != config:
+            a, b = _flat(existing.to_dict()), _flat(config.to_dict())
+            diff = ", ".join(f"{k}: {a.get(k, '-')!r} -> {b.get(k, '-')!r}"
+                             for k in sorted(a.keys() | b.keys()) if a.get(k) != b.get(k))
+            msg = f"OUT {out} holds a dataset made with a different config ({diff}); choose another folder"
+            raise ValueError(msg)
+    elif out.is_dir() and any(out.iterdir()):
+        msg = f"OUT {out} is a non-empty folder that holds no wavealt dataset; choose another folder"
+        raise ValueError(msg)
+    out.mkdir(parents=True, exist_ok=True)
+    records = records_of(config)
+    if not (out / "dataset.json").is_file():
+        write_info(out, new_info(config))
+    atomic_write_text(out / "manifest.csv", manifest_text(records))
+    todo = ids_missing(out, records, ("clean", "glinty"), save_surface)
+    if save_surface:
+        (out / "surface").mkdir(exist_ok=True)
+    tasks = [(str(out), config.to_dict(), i, save_surface) for i in todo]
+    bar = tqdm(total=len(records), initial=len(records) - len(todo), desc="simulate",
+               unit="seq", disable=not progress)
+    try:
+        if workers == 1 or len(tasks) <= 1:
+            for t in tasks:
+                _write_one(t)
+                bar.update()
+        else:
+            ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+            with ctx.Pool(int(workers)) as pool:
+                for _ in pool.imap_unordered(_write_one, tasks):
+                    bar.update()
+    finally:
+        bar.close()
+    if save_surface:
+        info = Dataset(out).info
+        info["conditions"]["surface"] = {"description": "ground truth per sequence: surface/<id>.npz "
+                                         "with height_m, slope_x, slope_y (T, H, W) float32"}
+        write_info(out, info)
+    return out

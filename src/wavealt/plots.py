@@ -8,10 +8,21 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+
+from wavealt.camera import Camera
+from wavealt.dataset import Dataset
+from wavealt.deglint import temporal_minimum, tmf_residual
+from wavealt.sim.config import Scenario, preset_config
+from wavealt.sim.generate import generate_sequence
+from wavealt.sim.light.optics import shade, sun_vector
+from wavealt.sim.paper import optics_of
 
 DPI = 120
+#: Small-multiple figures (Fig. 5, Fig. 6) wrap to this many panels a row, so that eight
+#: conditions stay readable at page width.
+MAX_COLUMNS = 4
 
 
 def _save(fig: plt.Figure, path: Path) -> Path:
@@ -45,17 +56,18 @@ def figure_generation_steps(height_m: np.ndarray, slope_x: np.ndarray, slope_y: 
                             fresnel: np.ndarray, lobe: np.ndarray, clean: np.ndarray,
                             glinty: np.ndarray, path: Path, *, title: str = "") -> Path:
     """Paper Fig. 3: height map, slopes/normals, Fresnel sky term, glint term, images."""
+    # (title, array, colour map, colour-bar label); a 2 x 4 grid, each colour bar labelled
     panels = [
-        ("height (m)", height_m, "viridis"),
-        ("slope magnitude", np.hypot(slope_x, slope_y), "magma"),
-        ("normals (RGB = n)", None, None),
-        ("Fresnel F(N·c)", fresnel, "cividis"),
-        ("glint lobe (N·H)^80", lobe, "gray"),
-        ("clean image", clean, None),
-        ("glinty image", glinty, None),
+        ("height", height_m, "viridis", "height (m)"),
+        ("slope magnitude", np.hypot(slope_x, slope_y), "magma", "|∇h|"),
+        ("normals (RGB = n)", None, None, None),
+        ("Fresnel sky term", fresnel, "cividis", "F(N·c)"),
+        ("glint lobe", lobe, "gray", "(N·H)^80"),
+        ("clean image", clean, None, None),
+        ("glinty image", glinty, None, None),
     ]
-    fig, axes = plt.subplots(1, len(panels), figsize=(2.7 * len(panels), 3.2))
-    for ax, (name, arr, cmap) in zip(axes, panels):
+    fig, axes = plt.subplots(2, 4, figsize=(11.0, 5.6), layout="constrained")
+    for ax, (name, arr, cmap, unit) in zip(axes.flat, panels):
         if name.startswith("normals"):
             inv = 1.0 / np.sqrt(1 + slope_x**2 + slope_y**2)
             nrm = np.stack([-slope_x * inv, -slope_y * inv, inv], -1)
@@ -64,10 +76,12 @@ def figure_generation_steps(height_m: np.ndarray, slope_x: np.ndarray, slope_y: 
             ax.imshow(np.clip(arr, 0, 1))
         else:
             im = ax.imshow(arr, cmap=cmap)
-            fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
+            fig.colorbar(im, ax=ax, shrink=0.85).set_label(unit, fontsize=8)
         ax.set_title(name, fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
+    for ax in axes.flat[len(panels):]:
+        ax.axis("off")
     fig.suptitle(title or "Wave and glint image generation (paper eq. (1)–(3))")
     return _save(fig, path)
 
@@ -75,11 +89,6 @@ def figure_generation_steps(height_m: np.ndarray, slope_x: np.ndarray, slope_y: 
 def dataset_figures(dataset: Path | str, out: Path | str, *,
                     sequence_id: str | None = None) -> list[Path]:
     """Fig. 2 and Fig. 3 of one sequence of a dataset (re-synthesised from its seed)."""
-    from wavealt.camera import Camera
-    from wavealt.dataset import Dataset
-    from wavealt.ocean.optics import shade, sun_vector
-    from wavealt.simulate import generate_sequence, optics_of
-
     ds = Dataset(dataset)
     if sequence_id is None:
         test = ds.split("test") or ds.records
@@ -129,8 +138,6 @@ def figure_pixel_trace(frames: np.ndarray, path: Path, *, pixel: tuple[int, int]
     ``frames`` is ``(T, H, W, 3)`` in [0, 1]; ``pixel`` is ``(row, col)``, by default the pixel
     whose residual peaks highest (the most glint-struck one).
     """
-    from wavealt.deglint import temporal_minimum, tmf_residual
-
     x = np.asarray(frames)
     base = temporal_minimum(x, window=window)
     res = tmf_residual(x, window=window)
@@ -158,9 +165,6 @@ def figure_pixel_trace(frames: np.ndarray, path: Path, *, pixel: tuple[int, int]
 def deglint_figures(dataset: Path | str, out: Path | str, *, sequence_id: str | None = None,
                     window: int = 10, frame: int | None = None) -> list[Path]:
     """Fig. 4 and Fig. 7 of one sequence of a dataset (the first test sequence by default)."""
-    from wavealt.dataset import Dataset
-    from wavealt.deglint import temporal_minimum, tmf_residual
-
     ds = Dataset(dataset)
     if sequence_id is None:
         test = ds.split("test") or ds.records
@@ -192,40 +196,56 @@ def figure_predicted_vs_actual(predictions: dict, path: Path, *, title: str = ""
     ``predictions`` maps a condition to ``{"true_m": (N,), "pred_m": (N,)}`` arrays.
     """
     conds = list(predictions)
-    fig, axes = plt.subplots(1, len(conds), figsize=(3.6 * len(conds), 3.6), squeeze=False)
+    fig, axes = _grid(len(conds), panel_in=2.9)
     allv = np.concatenate([np.r_[d["true_m"], d["pred_m"]] for d in predictions.values()])
     allv = allv[np.isfinite(allv)]
     lo, hi = (float(allv.min()), float(allv.max())) if allv.size else (0.0, 1.0)
     pad = 0.05 * (hi - lo + 1e-9)
-    for ax, c in zip(axes[0], conds):
+    for ax, c in zip(axes.flat, conds):
         t, p = np.asarray(predictions[c]["true_m"]), np.asarray(predictions[c]["pred_m"])
         ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k--", lw=1, label="perfect")
         ax.scatter(t, p, s=14, alpha=0.8)
         ax.set_xlim(lo - pad, hi + pad)
         ax.set_ylim(lo - pad, hi + pad)
         ax.set_aspect("equal")
-        ax.set_xlabel("actual altitude (m)")
-        ax.set_title(_condition_label(c))
-    axes[0, 0].set_ylabel("predicted altitude (m)")
+        ax.set_title(_condition_label(c), fontsize=10)
+    fig.supxlabel("actual altitude (m)")
+    fig.supylabel("predicted altitude (m)")
     fig.suptitle(title or "Predicted vs actual altitude (Fig. 5)")
     return _save(fig, path)
 
 
 def figure_error_distribution(predictions: dict, path: Path, *, title: str = "") -> Path:
-    """Paper Fig. 6: distribution of absolute errors per condition (histograms)."""
+    """Paper Fig. 6: distribution of absolute errors per condition, one small histogram a
+    condition on shared axes (overlaid outlines of many conditions hide each other)."""
     errs = {c: np.abs(np.asarray(d["pred_m"]) - np.asarray(d["true_m"]))
             for c, d in predictions.items()}
     errs = {c: e[np.isfinite(e)] for c, e in errs.items()}
     top = max([float(e.max()) for e in errs.values() if e.size] + [1e-3])
     bins = np.linspace(0.0, top, 16)
-    fig, ax = plt.subplots(figsize=(6.0, 3.8))
-    for c, e in errs.items():
-        ax.hist(e, bins=bins, histtype="step", lw=1.8, label=f"{_condition_label(c)} (n={e.size})")
-    ax.set_xlabel("absolute error (m)")
-    ax.set_ylabel("test sequences")
-    ax.legend(fontsize=8)
-    ax.set_title(title or "Distribution of absolute errors (Fig. 6)")
+    fig, axes = _grid(len(errs), panel_in=2.6, aspect=0.7, share=True)
+    for ax, (c, e) in zip(axes.flat, errs.items()):
+        ax.hist(e, bins=bins, color="tab:blue", alpha=0.75, edgecolor="white")
+        if e.size:
+            ax.axvline(float(np.median(e)), color="k", lw=1, ls="--")
+        ax.set_title(f"{_condition_label(c)} (n={e.size})", fontsize=10)
+    fig.supxlabel("absolute error (m); dashed: median")
+    fig.supylabel("test sequences")
+    fig.suptitle(title or "Distribution of absolute errors (Fig. 6)")
     return _save(fig, path)
+
+
+def _grid(n: int, *, panel_in: float, aspect: float = 1.0,
+          share: bool = False) -> tuple[plt.Figure, np.ndarray]:
+    """``n`` panels in rows of at most :data:`MAX_COLUMNS`; the unused cells are hidden."""
+    ncols = max(1, min(n, MAX_COLUMNS))
+    nrows = max(1, math.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(panel_in * ncols + 0.8,
+                                                    panel_in * aspect * nrows + 0.9),
+                             squeeze=False, sharex=share, sharey=share, layout="constrained")
+    for ax in axes.flat[n:]:
+        ax.axis("off")
+    return fig, axes
 
 
 #: Scenes of :func:`figure_presets`: altitude (m), wind (m/s), sun zenith (deg).
@@ -238,9 +258,6 @@ def figure_presets(path: Path | str, *, size: int = 192, seed: int = 7) -> Path:
     Each row is one scene (altitude, wind, sun zenith from :data:`PRESET_SCENES`), rendered by
     both presets from the same scenario: clean and glinty frames of each.
     """
-    from wavealt.scenario import Scenario, preset_config
-    from wavealt.simulate import generate_sequence
-
     configs = {name: preset_config(name, size=size, frames=2) for name in ("paper", "realistic")}
     cols = [("paper", "clean"), ("paper", "glinty"), ("realistic", "clean"), ("realistic", "glinty")]
     fig, axes = plt.subplots(len(PRESET_SCENES), len(cols),

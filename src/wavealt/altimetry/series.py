@@ -17,8 +17,12 @@ from tqdm import tqdm
 
 from wavealt._checks import check_finite_number, check_frames
 from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
-from wavealt.dataset import atomic_write_text, check_output_folder
-from wavealt.video import regular_runs, sliding_windows
+from wavealt.io import (
+    atomic_write_text,
+    check_output_folder,
+    regular_runs,
+    sliding_windows,
+)
 
 #: Why a summary with no trusted window is not trusted.
 NO_TRUSTED_WINDOW = "no window trusted"

@@ -33,25 +33,16 @@ Reproducibility.  Every augmentation draw comes from a NumPy generator seeded by
 ``resume`` continues a run exactly.  ``random``, NumPy and torch global states are seeded too,
 saved in every checkpoint and restored on resume, and each DataLoader worker is seeded.
 
-Run folder::
-
-    RUN/config.json    the fully resolved config (+ normalisation statistics, split sizes)
-    RUN/last.pt        model, optimizer, scheduler, RNG states, epoch, history (every epoch)
-    RUN/best.pt        the weights with the lowest validation MAE so far
-    RUN/history.json   per-epoch train loss, validation MAE (m), learning rate, seconds
+The run folder and the predictor are :mod:`wavealt.altimetry.predict`; the data pipeline
+(sampling, augmentation, model input) :mod:`wavealt.altimetry.data`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
-import os
 import random
-import tempfile
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -60,331 +51,45 @@ import torch
 from torch import nn
 from tqdm.auto import tqdm
 
-from wavealt._checks import check_known_keys
-from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, create_model, load_pretrained
-from wavealt.altimetry.device import (autocast, describe_device, prepare_model, resolve_device,
-                                     to_device)
-
-CHECKPOINT_LAST = "last.pt"
-CHECKPOINT_BEST = "best.pt"
-CONFIG_NAME = "config.json"
-HISTORY_NAME = "history.json"
-#: ITU-R BT.601 luma weights, for the temporal variant's grayscale frames.
-LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
-
-
-def set_num_threads(threads: int = 0) -> int:
-    """Set torch's intra-op threads: ``threads``, or every CPU core this process may run on
-    when 0; return the count.
-
-    On a shared machine fewer threads than cores can be much faster: torch's threads wait on
-    each other at every operation, so one descheduled thread stalls them all (measured: a
-    0.5 M-parameter ResNet at 64 px took 30 s per epoch on 2 threads beside one busy process,
-    0.5 s alone).
-    """
-    if threads:
-        n = int(threads)
-    else:
-        try:
-            n = len(os.sched_getaffinity(0))
-        except AttributeError:  # not on Linux
-            n = os.cpu_count() or 1
-    torch.set_num_threads(max(1, n))
-    return n
-
-
-def seed_everything(seed: int) -> None:
-    """Seed ``random``, NumPy's global generator and torch."""
-    random.seed(seed)
-    np.random.seed(seed % 2**32)
-    torch.manual_seed(seed)
-
-
-def _seed_worker(worker_id: int) -> None:
-    # torch seeds each worker's torch RNG from the loader's generator; pass it on to the
-    # others (timm / PyTorch reproducibility notes).
-    s = torch.initial_seed() % 2**32
-    random.seed(s)
-    np.random.seed(s)
-
-
-def _derived_seed(*parts: int) -> int:
-    return int(np.random.SeedSequence([int(p) for p in parts]).generate_state(1)[0])
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Everything that defines a training run (written as RUN/config.json).
-
-    Defaults are the paper's Table 1.  ``crop_px=None`` means ``size - size // 8`` of the
-    dataset's images (196 px at 224).  ``frames_per_sequence=0`` uses every frame each epoch.
-    ``threads=0`` gives torch every CPU core (see :func:`set_num_threads`).
-    """
-
-    condition: str = "clean"
-    model: str = "resnet50"
-    epochs: int = 30
-    batch_size: int = 32
-    lr: float = 1e-4
-    weight_decay: float = 0.0
-    seed: int = 42
-    crop_px: int | None = None
-    frames_per_sequence: int = 0
-    temporal: bool = False
-    jitter: float = 0.2
-    loss: str = "mse"
-    num_workers: int = 0
-    pretrained: str | None = None
-    threads: int = 0
-
-    def __post_init__(self) -> None:
-        ints = {"epochs": 1, "batch_size": 1, "frames_per_sequence": 0, "num_workers": 0,
-                "threads": 0}
-        for name, low in ints.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                msg = f"{name} must be an integer >= {low}; got {v!r}"
-                raise ValueError(msg)
-        if not (isinstance(self.lr, (int, float)) and math.isfinite(self.lr) and self.lr > 0):
-            msg = f"lr must be a positive number; got {self.lr!r}"
-            raise ValueError(msg)
-        if not (0.0 <= self.jitter < 1.0):
-            msg = f"jitter must be in [0, 1); got {self.jitter!r}"
-            raise ValueError(msg)
-        if self.crop_px is not None and (not isinstance(self.crop_px, int)
-                                         or self.crop_px < MIN_INPUT_PX):
-            msg = f"crop_px must be an integer >= {MIN_INPUT_PX}; got {self.crop_px!r}"
-            raise ValueError(msg)
-        if self.loss not in ("mse", "l1"):
-            msg = f"loss must be 'mse' or 'l1'; got {self.loss!r}"
-            raise ValueError(msg)
-        create_model(self.model, in_channels=1)  # validates the name early
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> TrainConfig:
-        """Build from a dict; unknown keys are an error."""
-        check_known_keys(d, {f.name for f in dataclasses.fields(cls)}, what="train config")
-        return cls(**d)
-
-
-# -- data -------------------------------------------------------------------------------
-def load_sequences(dataset: Any, condition: str, records: Sequence[Any], *,
-                   progress: bool = False) -> np.ndarray:
-    """Frames of ``records`` in ``condition`` as uint8 ``(N, T, H, W, 3)`` (PNG values exact)."""
-    dataset.require_condition(condition)
-    out = []
-    for r in tqdm(records, desc=f"load {condition}", disable=not progress, leave=False):
-        f = dataset.read_frames(condition, r.sequence_id)
-        out.append(np.round(f * 255.0).astype(np.uint8))
-    shapes = {a.shape for a in out}
-    if len(shapes) != 1:
-        msg = f"sequences of {condition!r} differ in shape: {sorted(shapes)}"
-        raise ValueError(msg)
-    return np.stack(out)
-
-
-def to_model_input(batch: np.ndarray, *, temporal: bool, mean: Sequence[float],
-                   std: Sequence[float]) -> torch.Tensor:
-    """The one place frames become torch input.
-
-    Parameters
-    ----------
-    batch : ndarray
-        float32 in [0, 1]: ``(B, H, W, 3)`` frames, or ``(B, T, H, W, 3)`` sequences when
-        ``temporal`` (their ``T`` grayscale frames become the channels).
-    temporal : bool
-        Stack frames as channels.
-    mean, std : sequence of float
-        Per-channel normalisation (3 values, or 1 for temporal grayscale).
-
-    Returns
-    -------
-    torch.Tensor
-        ``(B, C, H, W)`` float32, C = 3 or T.
-    """
-    batch = np.asarray(batch, dtype=np.float32)
-    if temporal:
-        if batch.ndim != 5 or batch.shape[-1] != 3:
-            msg = f"temporal batch must be (B, T, H, W, 3); got shape {batch.shape}"
-            raise ValueError(msg)
-        x = batch @ LUMA  # (B, T, H, W)
-        x = (x - np.float32(mean[0])) / np.float32(std[0])
-        return torch.from_numpy(np.ascontiguousarray(x))
-    if batch.ndim != 4 or batch.shape[-1] != 3:
-        msg = f"frame batch must be (B, H, W, 3); got shape {batch.shape}"
-        raise ValueError(msg)
-    x = (batch - np.asarray(mean, np.float32)) / np.asarray(std, np.float32)
-    return torch.from_numpy(np.ascontiguousarray(x.transpose(0, 3, 1, 2)))
-
-
-def centre_crop(frames: np.ndarray, crop_px: int) -> np.ndarray:
-    """Centre ``crop_px`` window of ``(..., H, W, 3)``, no resize (keeps the pixel scale)."""
-    h, w = frames.shape[-3], frames.shape[-2]
-    c = min(crop_px, h, w)
-    y0, x0 = (h - c) // 2, (w - c) // 2
-    return frames[..., y0:y0 + c, x0:x0 + c, :]
-
-
-def augment(frames: np.ndarray, crop_px: int, jitter: float, rng: np.random.Generator, *,
-            time_reverse: bool = False) -> np.ndarray:
-    """Random crop (no resize), H/V flips and colour jitter of ``(..., H, W, 3)`` uint8/float.
-
-    One draw applies to all leading (time) axes alike.  Returns float32 in [0, 1].
-    """
-    h, w = frames.shape[-3], frames.shape[-2]
-    c = min(crop_px, h, w)
-    y0 = int(rng.integers(0, h - c + 1))
-    x0 = int(rng.integers(0, w - c + 1))
-    x = frames[..., y0:y0 + c, x0:x0 + c, :].astype(np.float32)
-    if frames.dtype == np.uint8:
-        x /= 255.0
-    if rng.random() < 0.5:
-        x = x[..., :, ::-1, :]
-    if rng.random() < 0.5:
-        x = x[..., ::-1, :, :]
-    if time_reverse and rng.random() < 0.5:
-        x = x[::-1]
-    if jitter > 0:
-        b, k, s = 1.0 + jitter * (2.0 * rng.random(3) - 1.0)
-        x = x * np.float32(b)
-        gray = (x @ LUMA)[..., None]
-        x = gray + (x - gray) * np.float32(s)
-        m = x.mean(axis=(-3, -2, -1), keepdims=True)
-        x = m + (x - m) * np.float32(k)
-    return np.clip(x, 0.0, 1.0).astype(np.float32)
-
-
-class _TrainItems(torch.utils.data.Dataset):
-    """One epoch of training samples; sample ``i`` is a pure function of (seed, epoch, i)."""
-
-    def __init__(self, frames: np.ndarray, targets: np.ndarray, cfg: TrainConfig,
-                 crop_px: int, epoch: int) -> None:
-        self.frames = frames
-        self.targets = targets
-        self.cfg = cfg
-        self.crop_px = crop_px
-        self.epoch = epoch
-        n, t = frames.shape[:2]
-        if cfg.temporal:
-            self.items = [(s, -1) for s in range(n)]
-        elif cfg.frames_per_sequence == 0 or cfg.frames_per_sequence >= t:
-            self.items = [(s, k) for s in range(n) for k in range(t)]
-        else:
-            rng = np.random.default_rng(_derived_seed(cfg.seed, epoch, 1))
-            self.items = [(s, int(k)) for s in range(n)
-                          for k in rng.choice(t, cfg.frames_per_sequence, replace=False)]
-
-    def __len__(self) -> int:
-        return len(self.items)
-
-    def __getitem__(self, i: int) -> tuple[np.ndarray, np.float32]:
-        s, k = self.items[i]
-        rng = np.random.default_rng(_derived_seed(self.cfg.seed, self.epoch, 2, i))
-        src = self.frames[s] if k < 0 else self.frames[s, k]
-        x = augment(src, self.crop_px, self.cfg.jitter, rng, time_reverse=self.cfg.temporal)
-        return x, np.float32(self.targets[s])
-
-
-def _collate(batch: list[tuple[np.ndarray, np.float32]]) -> tuple[np.ndarray, np.ndarray]:
-    return np.stack([b[0] for b in batch]), np.array([b[1] for b in batch], np.float32)
-
-
-# -- the predictor ----------------------------------------------------------------------
-class AltitudePredictor:
-    """A trained model with its normalisation: frames in, altitude in metres out.
-
-    Parameters
-    ----------
-    model : ResNetRegressor
-    info : dict
-        The run's ``config.json`` content (train config + statistics).
-    """
-
-    def __init__(self, model: ResNetRegressor, info: dict[str, Any]) -> None:
-        self.model = model.eval()
-        self.device = next(model.parameters()).device
-        self.info = info
-        self.config = TrainConfig.from_dict(info["train"])
-        self.stats = info["stats"]
-
-    @torch.no_grad()
-    def predict_sequence(self, frames: np.ndarray, *, batch_size: int = 64) -> float:
-        """Altitude (m) of one sequence ``(T, H, W, 3)`` float in [0, 1] (or uint8).
-
-        Per-frame model: the mean over the centre-cropped frames; temporal model: one pass
-        over the stacked sequence (its frame count must be the training one).
-        """
-        frames = np.asarray(frames)
-        if frames.ndim != 4 or frames.shape[-1] != 3:
-            msg = f"frames must be (T, H, W, 3); got shape {frames.shape}"
-            raise ValueError(msg)
-        if frames.dtype == np.uint8:
-            frames = frames.astype(np.float32) / 255.0
-        x = centre_crop(frames, self.stats["crop_px"])
-        if self.config.temporal:
-            t_need = self.model.in_channels
-            if x.shape[0] != t_need:
-                msg = f"the temporal model needs {t_need} frames per sequence; got {x.shape[0]}"
-                raise ValueError(msg)
-            out = self._forward(x[None])
-        else:
-            out = torch.cat([self._forward(x[i:i + batch_size])
-                             for i in range(0, x.shape[0], batch_size)])
-        return float(out.mean())
-
-    def _forward(self, batch: np.ndarray) -> torch.Tensor:
-        inp = to_model_input(batch, temporal=self.config.temporal, mean=self.stats["input_mean"],
-                             std=self.stats["input_std"])
-        with autocast(self.device):
-            y = self.model(to_device(inp, self.device)).float().cpu()
-        return y * self.stats["target_std_m"] + self.stats["target_mean_m"]
-
-
-def load_run(run: Path | str, *, which: str = "best", device: str = "cpu") -> AltitudePredictor:
-    """The predictor of a training run folder (``best`` or ``last`` checkpoint) on ``device``
-    (see :func:`wavealt.altimetry.device.resolve_device`)."""
-    run = Path(run)
-    name = {"best": CHECKPOINT_BEST, "last": CHECKPOINT_LAST}.get(which)
-    if name is None:
-        msg = f"which must be 'best' or 'last'; got {which!r}"
-        raise ValueError(msg)
-    dev = resolve_device(device)
-    ckpt_path = run / name
-    cfg_path = run / CONFIG_NAME
-    if not ckpt_path.is_file() or not cfg_path.is_file():
-        msg = f"run folder {run} has no {name} / {CONFIG_NAME} (train it with `wavealt train`)"
-        raise FileNotFoundError(msg)
-    info = json.loads(cfg_path.read_text(encoding="utf-8"))
-    model = _build_model(TrainConfig.from_dict(info["train"]), info["stats"]["in_channels"])
-    state = torch.load(ckpt_path, map_location="cpu", weights_only=False)
-    model.load_state_dict(state["model"])
-    return AltitudePredictor(prepare_model(model, dev), info)
-
-
-def _build_model(cfg: TrainConfig, in_channels: int) -> ResNetRegressor:
-    return create_model(cfg.model, in_channels=in_channels)
+from wavealt.altimetry.cnn import MIN_INPUT_PX, ResNetRegressor, load_pretrained
+from wavealt.altimetry.data import (
+    LUMA,
+    TrainConfig,
+    _collate,
+    _derived_seed,
+    _seed_worker,
+    _TrainItems,
+    load_sequences,
+    seed_everything,
+    set_num_threads,
+    to_model_input,
+)
+from wavealt.altimetry.device import (
+    autocast,
+    describe_device,
+    prepare_model,
+    resolve_device,
+    to_device,
+)
+from wavealt.altimetry.predict import (
+    CHECKPOINT_BEST,
+    CHECKPOINT_LAST,
+    CONFIG_NAME,
+    HISTORY_NAME,
+    AltitudePredictor,
+    _build_model,
+)
+from wavealt.dataset import Dataset
+from wavealt.io import atomic_path, atomic_write_text
 
 
 # -- training ---------------------------------------------------------------------------
 def _atomic_torch_save(obj: Any, path: Path) -> None:
-    from wavealt.dataset import publish
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         torch.save(obj, tmp)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _write_json(path: Path, obj: Any) -> None:
-    from wavealt.dataset import atomic_write_text
-
     atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
 
 
@@ -460,7 +165,6 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
     dict
         ``{"best_epoch", "best_val_mae_m", "epochs", "history", "seconds"}``.
     """
-    from wavealt.dataset import Dataset
 
     cfg = config or TrainConfig()
     dev = resolve_device(device)
@@ -589,5 +293,4 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
             "epochs": cfg.epochs, "history": history, "seconds": seconds}
 
 
-__all__ = ["AltitudePredictor", "TrainConfig", "augment", "centre_crop", "load_run",
-           "load_sequences", "seed_everything", "set_num_threads", "to_model_input", "train"]
+__all__ = ["train"]

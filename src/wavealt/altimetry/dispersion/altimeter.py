@@ -23,7 +23,7 @@ from wavealt.altimetry.dispersion.signal import _has_texture, _Signal
 from wavealt.altimetry.dispersion.spectra import _Spectra
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
-from wavealt.ocean.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
+from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
 def _one_blas_thread() -> Any:

@@ -19,7 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
-from wavealt.ocean.spectrum import GRAVITY_MPS2
+from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
 
 class _Search:

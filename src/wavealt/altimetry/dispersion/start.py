@@ -10,7 +10,7 @@ import numpy as np
 
 from wavealt.altimetry.dispersion.constants import TUKEY_C_RAD
 from wavealt.altimetry.dispersion.spectra import _wrap
-from wavealt.ocean.spectrum import GRAVITY_MPS2
+from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
 
 class _Start:

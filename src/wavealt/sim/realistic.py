@@ -1,17 +1,18 @@
 """The ``realistic`` pipeline: physical sea -> sky, glint, glitter, foam -> camera.
 
-Called by :func:`wavealt.simulate.generate_sequence` when ``config.renderer == "realistic"``.
+The renderer :class:`RealisticRenderer` (``config.renderer == "realistic"``); it reads the
+common config, ``config.realistic`` and ``config.sensor``.
 All radiances are in units of the sun's normal irradiance per steradian (``E_sun = 1``):
 
     L_clean  = (1 - f) [F(N.c) L_sky(r) + (1 - F) R_rs E_d] + f A E_d / pi
     L_glinty = L_clean + (1 - f) g mu_s rho / pi
 
-with the reflected sky ``L_sky(r)`` of :mod:`wavealt.ocean.sky` along the mirror direction
+with the reflected sky ``L_sky(r)`` of :mod:`wavealt.sim.light.sky` along the mirror direction
 ``r``, the remote-sensing reflectance of the water ``R_rs`` (sr^-1), the downwelling
 irradiance ``E_d = mu_s (1 + diffuse_ratio)``, the foam cover ``f`` of albedo ``A``
-(:func:`wavealt.ocean.glitter.whitecap_field`), the glint reflectance ``rho`` of resolved plus
-sub-pixel facets (:func:`wavealt.ocean.glitter.glint_reflectance`) and the scenario's
-``glint_severity`` ``g`` as the direct-sun transmittance.  :mod:`wavealt.sensor` then exposes,
+(:func:`wavealt.sim.light.glitter.whitecap_field`), the glint reflectance ``rho`` of resolved plus
+sub-pixel facets (:func:`wavealt.sim.light.glitter.glint_reflectance`) and the scenario's
+``glint_severity`` ``g`` as the direct-sun transmittance.  :mod:`wavealt.sim.sensor` then exposes,
 adds noise, vignettes and encodes.
 
 Per-sequence values that the manifest does not list (spreading exponent, inverse wave age,
@@ -23,19 +24,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wavealt.ocean.glitter import glint_reflectance, whitecap_field, whitecap_fraction
-from wavealt.ocean.optics import fresnel_unpolarised, sun_vector
-from wavealt.ocean.realistic import RealisticSea, SeaSpectrum
-from wavealt.ocean.sky import SkyModel, reflect_components
-from wavealt.scenario import Scenario, SimConfig
-from wavealt.sensor import SensorModel, attitude_view_vectors, capture_pair, vignetting_map
-
-if TYPE_CHECKING:
-    from wavealt.simulate import SequenceData
+from wavealt.sim.base import SequenceData, domain_points
+from wavealt.sim.config import RealisticConfig, Scenario, SimConfig
+from wavealt.sim.light.glitter import (
+    glint_reflectance,
+    whitecap_field,
+    whitecap_fraction,
+)
+from wavealt.sim.light.optics import fresnel_unpolarised, sun_vector
+from wavealt.sim.light.sky import SkyModel, reflect_components
+from wavealt.sim.sea.realistic import RealisticSea, SeaSpectrum
+from wavealt.sim.sensor import attitude_view_vectors, capture_pair, vignetting_map
 
 #: Remote-sensing reflectance of clear open water in R, G, B, sr^-1 (order of Mobley 1994).
 WATER_RRS = (0.0008, 0.0030, 0.0055)
@@ -59,38 +61,31 @@ class RealisticDraws:
 def realistic_draws(scenario: Scenario, config: SimConfig) -> RealisticDraws:
     """Draw the extra per-sequence values from ``config``'s ranges and ``scenario.seed``."""
     rng = np.random.default_rng([scenario.seed, 2])
+    rc: RealisticConfig = config.realistic
 
     def draw(r: tuple[float, float]) -> float:
         return float(r[0] + (r[1] - r[0]) * rng.random())
 
-    return RealisticDraws(spreading_s=draw(config.spreading_s),
-                          inverse_wave_age=draw(config.inverse_wave_age),
-                          exposure_ev=draw(config.exposure_ev), roll_deg=draw(config.roll_deg),
-                          pitch_deg=draw(config.pitch_deg), vignetting=draw(config.vignetting))
-
-
-def sensor_of(config: SimConfig) -> SensorModel:
-    return SensorModel(full_well_e=config.full_well_e, read_noise_e=config.read_noise_e,
-                       srgb=config.srgb, compression=config.compression,
-                       jpeg_quality=config.jpeg_quality, h264_crf=config.h264_crf)
+    return RealisticDraws(spreading_s=draw(rc.spreading_s),
+                          inverse_wave_age=draw(rc.inverse_wave_age),
+                          exposure_ev=draw(rc.exposure_ev), roll_deg=draw(rc.roll_deg),
+                          pitch_deg=draw(rc.pitch_deg), vignetting=draw(rc.vignetting))
 
 
 def make_sea(scenario: Scenario, config: SimConfig, draws: RealisticDraws, *,
              margin_px: int = 0) -> RealisticSea:
-    """The physical sea of ``scenario`` on the pixel-GSD grid (see :mod:`wavealt.ocean.realistic`).
+    """The physical sea of ``scenario`` on the pixel-GSD grid (see :mod:`wavealt.sim.sea.realistic`).
 
     The periodic domain spans ``domain_pad`` footprints, and at least the footprint plus
     ``margin_px`` on each side (room for the shift of a tilted camera).  Waves longer than
     the domain are the sea's long-wave modes, so a small pad shows no repetition.
     """
-    from wavealt.simulate import domain_points
-
     size = int(config.size)
     n = max(domain_points(size, config.domain_pad),
             domain_points(size + 2 * abs(int(margin_px)), 1.0))
     spec = SeaSpectrum(wind_speed_mps=scenario.wind_speed_mps,
-                       wind_dir_rad=math.radians(scenario.wind_dir_deg), spectrum=config.spectrum,
-                       spreading=config.spreading, spreading_s=draws.spreading_s,
+                       wind_dir_rad=math.radians(scenario.wind_dir_deg),
+                       spectrum=config.realistic.spectrum, spreading=config.realistic.spreading, spreading_s=draws.spreading_s,
                        inverse_wave_age=draws.inverse_wave_age)
     return RealisticSea(spec, n=n,
                         dx_m=scenario.altitude_m / scenario.focal_px,
@@ -133,11 +128,9 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
                                 with_height: bool = False) -> SequenceData:
     """Synthesise and photograph the paired clean/glinty frames of ``scenario``.
 
-    Returns a :class:`wavealt.simulate.SequenceData`; its ``slope_x``/``slope_y`` are the
+    Returns a :class:`wavealt.sim.base.SequenceData`; its ``slope_x``/``slope_y`` are the
     resolved slopes on the image grid.
     """
-    from wavealt.simulate import SequenceData
-
     size = int(config.size)
     draws = realistic_draws(scenario, config)
     view, shift = attitude_view_vectors(size, size, scenario.focal_px,
@@ -151,7 +144,7 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
     sx = np.stack([f["slope_x"] for f in fields])
     sy = np.stack([f["slope_y"] for f in fields])
     foam = None
-    if config.whitecaps:
+    if config.realistic.whitecaps:
         frac = whitecap_fraction(scenario.wind_speed_mps)
         if frac > 0:
             n = sea.n
@@ -174,12 +167,23 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
         refractive_index=config.refractive_index)
     vig = (vignetting_map(size, size, scenario.focal_px, strength=draws.vignetting)
            if draws.vignetting > 0 else None)
-    clean, glinty = capture_pair(clean_rad, glinty_rad, sensor=sensor_of(config),
+    clean, glinty = capture_pair(clean_rad, glinty_rad, sensor=config.sensor,
                                  rng=np.random.default_rng([scenario.seed, 4]),
                                  exposure_ev=draws.exposure_ev, vignetting=vig, fps=scenario.fps)
     height = np.stack([f["height_m"] for f in fields]) if with_height else None
     return SequenceData(clean=clean, glinty=glinty, slope_x=sx, slope_y=sy, height_m=height)
 
 
-__all__ = ["RealisticDraws", "generate_realistic_sequence", "make_sea", "realistic_draws",
-           "render_radiance", "sensor_of"]
+class RealisticRenderer:
+    """The ``realistic`` renderer: reads the common config, ``config.realistic`` and
+    ``config.sensor``."""
+
+    name = "realistic"
+
+    def render(self, scenario: Scenario, config: SimConfig, *,
+               with_height: bool = False) -> SequenceData:
+        return generate_realistic_sequence(scenario, config, with_height=with_height)
+
+
+__all__ = ["RealisticDraws", "RealisticRenderer", "generate_realistic_sequence", "make_sea",
+           "realistic_draws", "render_radiance"]

@@ -1,19 +1,174 @@
-"""Frame input for real footage: a folder of images or a video file with the times of its
-frames, and sliding windows.
+"""Files: atomic writes, images, frame folders, video and frame times. Every stage writes
+through this module, so the rules hold everywhere: a file or frame folder appears whole or
+not at all (written under a temporary name, then renamed), and it gets the permissions a
+plain ``open`` would give it (the umask's), not the ``0o600`` of a temporary file.
 
-The times of a video's frames are its presentation timestamps (PTS); a frame folder is read
-in natural order (``frame_2`` before ``frame_10``) at ``--fps`` or at the times of a CSV.
+Frames are ``(T, H, W, 3)`` float32 in [0, 1]; images on disk are 8-bit RGB. The times of a
+video's frames are its presentation timestamps (PTS); a frame folder is read in natural
+order (``frame_2`` before ``frame_10``) at ``--fps`` or at the times of a CSV.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
+from natsort import natsorted
+from PIL import Image, UnidentifiedImageError
 
+from wavealt._checks import check_frames, read_number_columns
+
+
+# -- atomic writes ------------------------------------------------------------------------
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def publish(tmp: Path | str, path: Path | str) -> None:
+    """Move a finished temporary file onto ``path`` with the permissions a plain ``open``
+    would give it (``0o666`` less the umask; ``mkstemp`` makes files ``0o600``)."""
+    os.chmod(tmp, 0o666 & ~_umask())
+    os.replace(tmp, path)
+
+
+@contextmanager
+def atomic_path(path: Path | str, *, suffix: str = "") -> Iterator[Path]:
+    """The one atomic-write pattern: yield a temporary path beside ``path`` for the caller
+    to write; on success it replaces ``path`` (umask permissions), on any error it goes.
+
+    ``suffix`` keeps an extension on the temporary name for writers that add one
+    (``np.savez`` appends ``.npz`` to a name without it).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        publish(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: Path | str, text: str) -> None:
+    """Write ``text`` (UTF-8, newlines as given) to ``path`` atomically."""
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
+        fh.write(text)
+
+
+def atomic_save_npz(path: Path | str, **arrays: np.ndarray) -> None:
+    """``np.savez_compressed`` to ``path`` atomically."""
+    with atomic_path(path, suffix=".npz") as tmp:
+        np.savez_compressed(tmp, **arrays)
+
+
+def check_output_folder(out: Path | str, names: Iterable[str], *, force: bool = False,
+                        what: str | None = None) -> Path:
+    """The one overwrite rule of every command: ``out`` must be a folder (or not exist yet),
+    and one that already holds any of ``names`` is refused unless ``force`` — before any
+    work, so nothing written earlier is replaced silently. ``what`` names the earlier
+    result in the message (default: the files found)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out} is a file; give a folder"
+        raise ValueError(msg)
+    held = [n for n in names if (out / n).exists()]
+    if held and not force:
+        msg = f"--out {out} already holds {what or ', '.join(held)}; use another folder or --force"
+        raise ValueError(msg)
+    return out
+
+# -- images and frame folders ---------------------------------------------------------------
+def to_uint8(frames: np.ndarray) -> np.ndarray:
+    """Float frames in [0, 1] to uint8, rounding to nearest."""
+    return np.round(np.clip(frames, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def write_png(path: Path, image: np.ndarray) -> None:
+    """Write one ``(H, W, 3)`` frame (float in [0, 1] or uint8) as an 8-bit RGB PNG."""
+    img = image if image.dtype == np.uint8 else to_uint8(image)
+    Image.fromarray(img, mode=None).save(path, format="PNG", compress_level=1)
+
+
+def read_png(path: Path) -> np.ndarray:
+    """Read an image file as ``(H, W, 3)`` float32 in [0, 1]."""
+    path = Path(path)
+    if not path.is_file():
+        msg = f"image file not found: {path}"
+        raise FileNotFoundError(msg)
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+        msg = f"cannot read image {path}: {exc}"
+        raise ValueError(msg) from None
+    return arr.astype(np.float32) / 255.0
+
+
+def frame_files(folder: Path) -> list[Path]:
+    """Image files of a frame folder in natural order (``frame_2`` before ``frame_10``)."""
+    exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+    return natsorted((p for p in Path(folder).iterdir()
+                      if p.suffix.lower() in exts and p.is_file()), key=lambda p: p.name)
+
+
+def read_frames_folder(folder: Path | str) -> np.ndarray:
+    """Read every image of ``folder`` (natural order) as ``(T, H, W, 3)`` float32."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        msg = f"frame folder not found: {folder}"
+        raise FileNotFoundError(msg)
+    files = frame_files(folder)
+    if not files:
+        msg = f"frame folder {folder} holds no image files"
+        raise ValueError(msg)
+    frames = [read_png(p) for p in files]
+    shapes = {f.shape for f in frames}
+    if len(shapes) > 1:
+        msg = f"frames in {folder} have different sizes: {sorted(shapes)}"
+        raise ValueError(msg)
+    return np.stack(frames)
+
+
+def write_frames_folder(folder: Path | str, frames: np.ndarray) -> None:
+    """Write ``(T, H, W, 3)`` frames as ``frame_000.png`` ... atomically.
+
+    The frames go to a temporary sibling folder which is renamed to ``folder``; an existing
+    ``folder`` is replaced only once the new one is complete.
+    """
+    frames = check_frames(frames)
+    folder = Path(folder)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0o700
+        for t, frame in enumerate(frames):
+            write_png(tmp / f"frame_{t:03d}.png", frame)
+        if folder.exists():
+            old = folder.with_name(f".{folder.name}.old-{os.getpid()}")
+            folder.rename(old)
+            tmp.rename(folder)
+            shutil.rmtree(old)
+        else:
+            tmp.rename(folder)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+
+# -- video and frame times ----------------------------------------------------------------
 VIDEO_SUFFIXES = {".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mpg", ".mpeg", ".ts"}
 #: ``--fps`` may differ from a video's own rate by this fraction before it is a contradiction.
 FPS_TOLERANCE = 0.01
@@ -55,7 +210,7 @@ def read_video_timed(path: Path | str, *,
 
 def _decode(path: Path | str, *,
             max_frames: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    import av
+    import av  # deferred: 0.4 s, only for video files
 
     path = Path(path)
     if not path.is_file():
@@ -128,8 +283,6 @@ def nominal_rate(times_s: np.ndarray) -> float:
 def read_frame_times(path: Path | str, n_frames: int) -> np.ndarray:
     """Frame times from a CSV: a header with a ``time_s`` column, one row per frame in the
     folder's (natural) order; seconds, strictly increasing. Returned from the first frame."""
-    from wavealt._checks import read_number_columns
-
     t = read_number_columns(path, ("time_s",), "frame-times file")[:, 0]
     if t.size != n_frames:
         msg = f"frame-times file {path} has {t.size} rows for {n_frames} frames"
@@ -149,8 +302,6 @@ def read_clip(path: Path | str, *, fps: float | None = None, frame_times: Path |
     evenly spaced times at ``fps``. A folder needs ``fps`` or ``frame_times`` (a CSV, see
     :func:`read_frame_times`).
     """
-    from wavealt.dataset import read_frames_folder
-
     path = Path(path)
     if fps is not None and not (math.isfinite(fps) and fps > 0):
         msg = f"--fps must be a positive number; got {fps!r}"
@@ -196,10 +347,7 @@ def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
     ``times_s`` stamps each frame with its own time (a 1/60000 s clock, within MPEG-4's
     limit) instead of ``1 / fps`` steps: variable frame rate and dropped frames.
     """
-    import av
-    from fractions import Fraction
-
-    from wavealt.dataset import to_uint8
+    import av  # deferred: 0.4 s, only for video files
 
     arr = frames if frames.dtype == np.uint8 else to_uint8(frames)
     if arr.ndim == 3:  # grey frames: written as RGB
@@ -224,8 +372,6 @@ def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
 
 def read_input(path: Path | str) -> np.ndarray:
     """Frames of ``path``: a folder of images (natural order) or a video file."""
-    from wavealt.dataset import read_frames_folder
-
     path = Path(path)
     if path.is_dir():
         return read_frames_folder(path)
@@ -252,6 +398,8 @@ def sliding_windows(n_frames: int, *, window: int, step: int | None = None) -> I
         yield start, start + window
 
 
-__all__ = ["FPS_TOLERANCE", "GAP_TOLERANCE", "Clip", "nominal_rate", "read_clip",
-           "read_frame_times", "read_input", "read_video", "read_video_timed", "regular_runs",
-           "sliding_windows", "write_video"]
+__all__ = ["FPS_TOLERANCE", "GAP_TOLERANCE", "Clip", "atomic_path", "atomic_save_npz",
+           "atomic_write_text", "check_output_folder", "frame_files", "nominal_rate", "publish",
+           "read_clip", "read_frame_times", "read_frames_folder", "read_input", "read_png",
+           "read_video", "read_video_timed", "regular_runs", "sliding_windows", "to_uint8",
+           "write_frames_folder", "write_png", "write_video"]

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.video import regular_runs
+from wavealt.io import regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
@@ -75,7 +75,7 @@ class FrameReader(threading.Thread):
         self.stats = ReaderStats()
 
     def run(self) -> None:
-        import av
+        import av  # deferred: 0.4 s of the command line's start-up
 
         target = sys.stdin.buffer if self.source == "-" else self.source
         try:

@@ -22,57 +22,13 @@ from __future__ import annotations
 
 import io
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
-from wavealt._checks import as_rng, check_choice, check_finite_number
-
-COMPRESSIONS = ("none", "jpeg", "h264")
-
-
-@dataclass(frozen=True)
-class SensorModel:
-    """Sensor and encoder settings.
-
-    Parameters
-    ----------
-    full_well_e : float
-        Electrons at full scale (> 0).
-    read_noise_e : float
-        Read noise standard deviation, electrons (>= 0).
-    target_grey : float
-        Linear full-scale fraction the mean clean luminance is exposed to (0, 1).
-    srgb : bool
-        Encode with the sRGB transfer function (else frames stay linear).
-    compression : {"none", "jpeg", "h264"}
-    jpeg_quality : int
-        1..100 (Pillow's scale).
-    h264_crf : int
-        0..51, libx264 constant rate factor.
-    """
-
-    full_well_e: float = 20000.0
-    read_noise_e: float = 5.0
-    target_grey: float = 0.18
-    srgb: bool = True
-    compression: str = "none"
-    jpeg_quality: int = 90
-    h264_crf: int = 23
-
-    def __post_init__(self) -> None:
-        check_finite_number("full_well_e", self.full_well_e, low=0.0, low_open=True)
-        check_finite_number("read_noise_e", self.read_noise_e, low=0.0)
-        check_finite_number("target_grey", self.target_grey, low=0.0, high=1.0, low_open=True,
-                            high_open=True)
-        check_choice("compression", self.compression, COMPRESSIONS)
-        if int(self.jpeg_quality) != self.jpeg_quality or not 1 <= self.jpeg_quality <= 100:
-            msg = f"jpeg_quality must be an integer in [1, 100]; got {self.jpeg_quality!r}"
-            raise ValueError(msg)
-        if int(self.h264_crf) != self.h264_crf or not 0 <= self.h264_crf <= 51:
-            msg = f"h264_crf must be an integer in [0, 51]; got {self.h264_crf!r}"
-            raise ValueError(msg)
+from wavealt._checks import as_rng, check_finite_number
+from wavealt.sim.config import COMPRESSIONS, SensorModel
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
@@ -152,8 +108,6 @@ def expose_and_read(signal: np.ndarray, normals: np.ndarray, sensor: SensorModel
 
 
 def _jpeg(frames8: np.ndarray, quality: int) -> np.ndarray:
-    from PIL import Image
-
     out = np.empty_like(frames8)
     for i, f in enumerate(frames8):
         buf = io.BytesIO()
@@ -164,7 +118,7 @@ def _jpeg(frames8: np.ndarray, quality: int) -> np.ndarray:
 
 
 def _h264(frames8: np.ndarray, crf: int, fps: float) -> np.ndarray:
-    import av
+    import av  # deferred: 0.4 s, only for H.264 encoding
 
     t, h, w, _ = frames8.shape
     if h % 2 or w % 2:

@@ -28,7 +28,8 @@ import math
 import numpy as np
 
 from wavealt._checks import as_rng, check_finite_number
-from wavealt.ocean.optics import WATER_REFRACTIVE_INDEX, fresnel_unpolarised
+from wavealt.sim.light.optics import WATER_REFRACTIVE_INDEX, fresnel_unpolarised
+from wavealt.sim.sea.spectrum import cox_munk_slope_variance
 
 #: Angular radius of the sun, rad; its disc sets a floor on the slope spread a pixel sees.
 SUN_RADIUS_RAD = 0.00465
@@ -97,8 +98,6 @@ def cox_munk_glint(sun_zenith_deg: float, view_zenith_deg: float, relative_azimu
     """
     check_finite_number("sun_zenith_deg", sun_zenith_deg, low=0.0, high=90.0, high_open=True)
     check_finite_number("view_zenith_deg", view_zenith_deg, low=0.0, high=90.0, high_open=True)
-    from wavealt.ocean.spectrum import cox_munk_slope_variance
-
     ts, tv, phi = (math.radians(sun_zenith_deg), math.radians(view_zenith_deg),
                    math.radians(relative_azimuth_deg))
     sun = np.array([math.sin(ts), 0.0, math.cos(ts)])

@@ -28,7 +28,7 @@ add up to Cox–Munk's total at every altitude:
 2. the FFT grid, ``dk = 2 pi / (n gsd)`` up to the pixel Nyquist ``pi / gsd``;
 3. everything finer than a pixel: not synthesised, but handed to the renderer as the variance
    of unresolved facet slopes (``subpixel_slope_variance``), which the Cox–Munk glitter model
-   (:mod:`wavealt.ocean.glitter`) turns into the probability that a pixel holds a glinting
+   (:mod:`wavealt.sim.light.glitter`) turns into the probability that a pixel holds a glinting
    facet.  The average over a pixel's footprint is thus a physical statistic of the sea, not
    the blur of an interpolator.
 
@@ -47,8 +47,10 @@ import scipy.fft
 from scipy.special import gammaln
 
 from wavealt._checks import as_rng, check_choice, check_finite_number
-from wavealt.ocean.spectrum import (
-    GRAVITY_MPS2, cox_munk_slope_variance, gravity_capillary_omega,
+from wavealt.sim.sea.spectrum import (
+    GRAVITY_MPS2,
+    cox_munk_slope_variance,
+    gravity_capillary_omega,
 )
 
 #: Wavenumber of the minimum phase speed, ``sqrt(g rho / sigma)`` = 368 rad/m (lambda 1.7 cm);

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wavealt._checks import check_finite_number
+from wavealt._checks import check_finite_number, check_rgb
 
 WATER_REFRACTIVE_INDEX = 1.34
 
@@ -76,12 +76,7 @@ class Optics:
         check_finite_number("lobe_exponent", self.lobe_exponent, low=0.0, low_open=True)
         check_finite_number("contrast", self.contrast, low=0.0, low_open=True, high=1.0)
         for name in ("water_rgb", "sky_rgb", "display_rgb"):
-            v = getattr(self, name)
-            if len(v) != 3:
-                msg = f"{name} must have 3 components; got {v!r}"
-                raise ValueError(msg)
-            for x in v:
-                check_finite_number(name, x, low=0.0)
+            check_rgb(name, getattr(self, name))
 
 
 def _power(x: np.ndarray, exponent: float) -> np.ndarray:

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.fft
 
 from wavealt._checks import as_rng, check_finite_number
-from wavealt.ocean.spectrum import cox_munk_slope_variance, deep_water_omega, phillips
+from wavealt.sim.sea.spectrum import cox_munk_slope_variance, deep_water_omega, phillips
 
 
 def _negated_index(n: int) -> np.ndarray:

@@ -1,1 +1,0 @@
-"""Ocean surface: wave spectra, surface synthesis and time evolution, optics."""

@@ -49,7 +49,6 @@ import multiprocessing  # noqa: E402
 import platform  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
 from collections.abc import Iterable, Sequence  # noqa: E402
@@ -60,6 +59,8 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
+
+from wavealt.io import atomic_path, atomic_write_text  # noqa: E402
 
 # -- settings (one place) -------------------------------------------------------------------
 HERE = Path(__file__).resolve().parent
@@ -202,23 +203,9 @@ def decode(stored: np.ndarray) -> np.ndarray:
     return stored.astype(np.float32)
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)  # mkstemp makes it private
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def save_npy(path: Path, arr: np.ndarray) -> None:
-    buf = io.BytesIO()
-    np.save(buf, arr)
-    atomic_write_bytes(path, buf.getvalue())
+    with atomic_path(path, suffix=".npy") as tmp:  # np.save appends .npy to other names
+        np.save(tmp, arr)
 
 
 def load_frames(cfg: Any, sc: Any, index: int, use_cache: bool) -> dict[str, np.ndarray]:
@@ -236,7 +223,7 @@ def load_frames(cfg: Any, sc: Any, index: int, use_cache: bool) -> dict[str, np.
         config_file = folder / "config.json"
         if not config_file.exists():
             text = json.dumps(cfg.to_dict(), indent=2, sort_keys=True) + "\n"
-            atomic_write_bytes(config_file, text.encode())
+            atomic_write_text(config_file, text)
         for c, p in paths.items():
             save_npy(p, stored[c])
     return {c: decode(s) for c, s in stored.items()}
@@ -510,13 +497,13 @@ def environment() -> dict[str, Any]:
 
 
 def write_outputs(result: dict[str, Any], recs: list[dict[str, Any]], out: Path) -> None:
-    atomic_write_bytes(out, (json.dumps(result, indent=2) + "\n").encode())
+    atomic_write_text(out, json.dumps(result, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
     w.writeheader()
     for r in sorted(recs, key=lambda r: (r["row"], r["seed"], r["index"], r["condition"])):
         w.writerow(r)
-    atomic_write_bytes(out.with_suffix(".csv"), buf.getvalue().encode())
+    atomic_write_text(out.with_suffix(".csv"), buf.getvalue())
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:

@@ -17,6 +17,7 @@ from wavealt.altimetry.dispersion import (
 from wavealt.altimetry.series import altitude_series
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
+from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
 
 def _linear_frames(h: float, wind: float, speed: float, direction: float, *, size: int = 64,
@@ -512,3 +513,47 @@ def test_peak_prominences_equal_scipys() -> None:
         peaks, prom = peak_prominences(y)
         np.testing.assert_array_equal(peaks, ref)
         np.testing.assert_allclose(prom, props["prominences"])
+
+
+@pytest.mark.parametrize("dispersion", ["gravity", "gravity-capillary"])
+def test_alias_floor_is_where_the_quantile_mode_turns_half_a_cycle(dispersion: str) -> None:
+    """The blind profile's lowest altitude: there the modes' ALIAS_MODE_FRACTION quantile
+    turns by exactly half a cycle per frame, omega(kappa_q f / h) = pi fps; a faster camera
+    tests lower altitudes (gravity waves: h scales as 1 / fps^2)."""
+    from wavealt.altimetry.dispersion.constants import ALIAS_MODE_FRACTION
+
+    rng = np.random.default_rng(5)
+    p = {"kappa": rng.uniform(0.05, np.pi, 400)}
+    est = DispersionAltimeter(dispersion=dispersion)
+    focal_px = 250.0
+    kappa_q = np.quantile(p["kappa"], ALIAS_MODE_FRACTION)
+    floors = []
+    for fps in (15.0, 30.0, 60.0):
+        h = np.exp(est._alias_floor_log(p, fps, focal_px))
+        assert est.omega(np.array([kappa_q * focal_px / h]))[0] / fps == pytest.approx(np.pi, rel=1e-9)
+        # a fraction ALIAS_MODE_FRACTION of the modes turns by less than half a cycle there
+        turn = est.omega(p["kappa"] * focal_px / h) / fps
+        assert np.mean(turn < np.pi) == pytest.approx(ALIAS_MODE_FRACTION, abs=2.0 / 400)
+        floors.append(h)
+    assert floors[0] > floors[1] > floors[2]
+    if dispersion == "gravity":
+        assert floors[1] == pytest.approx(focal_px * kappa_q * GRAVITY_MPS2 / (np.pi * 30.0) ** 2,
+                                          rel=1e-9)
+        assert floors[0] / floors[1] == pytest.approx(4.0, rel=1e-9)
+
+
+def test_blind_profile_reaches_down_from_a_start_pinned_at_the_top() -> None:
+    """A phase-step start at the top of the range (a frozen pattern in translation passes
+    for the waves there) bounds the profile only from above: it reaches down to the lowest
+    altitude the frame rate can test and finds the shell far below the start."""
+    h = 1.5
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    lo, hi = est.altitude_range_m
+    fit = est._fit_blind(p, 30.0, focal_px, np.log(hi), np.zeros(2))
+    grid = fit["ridge"][0]
+    floor = max(np.log(lo), est._alias_floor_log(p, 30.0, focal_px))
+    assert floor <= grid[0] < floor + (grid[1] - grid[0]) + 1e-9
+    assert grid[-1] == pytest.approx(np.log(hi) + 0.4, abs=1e-9)
+    assert abs(np.exp(fit["logh"]) - h) / h < 0.06

@@ -13,9 +13,11 @@ from wavealt.altimetry.dispersion.constants import (
     AIDED_SCAN_ABOVE,
     AIDED_SCAN_BELOW,
     AIDED_SHRINK_FRACTION,
+    ALIAS_MODE_FRACTION,
+    BLIND_PEAK_CANDIDATES,
     BLIND_PROFILE_ABOVE_LOG,
-    BLIND_PROFILE_BELOW,
     BLIND_PROFILE_STEP_LOG,
+    MIN_SIGNIFICANCE,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -272,6 +274,25 @@ class _Search:
                 step *= 0.5
         return best, u
 
+    def _alias_floor_log(self, p: dict[str, Any], fps: float, focal_px: float) -> float:
+        """Log of the lowest altitude at which ``ALIAS_MODE_FRACTION`` of the periodogram's
+        modes have a wave phase step ``omega(kappa focal_px / h) / fps`` below half a cycle.
+
+        ``omega`` grows with ``k``, so that altitude is ``focal_px kappa_q / k_pi``, with
+        ``kappa_q`` the modes' ``ALIAS_MODE_FRACTION`` quantile and ``omega(k_pi) = pi fps``
+        (bisection in log ``k``; gravity alone: ``k_pi = (pi fps)^2 / g``).
+        """
+        target = math.pi * fps
+        lo_k, hi_k = math.log(1e-6), math.log(1e9)
+        for _ in range(60):
+            mid = 0.5 * (lo_k + hi_k)
+            if float(self.omega(np.array([math.exp(mid)]))[0]) < target:
+                lo_k = mid
+            else:
+                hi_k = mid
+        kappa_q = float(np.quantile(p["kappa"], ALIAS_MODE_FRACTION))
+        return math.log(focal_px * kappa_q) - 0.5 * (lo_k + hi_k)
+
     def _fit_blind(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                    logh0: float, u0: np.ndarray) -> dict[str, Any]:
         """Velocity unknown: the profile of the periodogram score over log altitude, the
@@ -284,16 +305,25 @@ class _Search:
         renderer).  The periodogram separates the shell from those products once the clip
         resolves them (about 1 s); along the profile, a drift that trades against altitude
         leaves a flat profile, which the quality and the mode groups' spread along it report
-        (:meth:`_result`).  The profile follows the ridge
-        from the phase-step fit ``(logh0, u0)`` (``u0`` in the periodogram's convention)
-        over ``x1/4 .. x1.5`` of its altitude (its bias is mostly upward, but a start two to
-        three times too high is common on rendered frames); the most prominent
-        peak is refined on all modes like the aided fit.
+        (:meth:`_result`).  The profile follows the ridge from the phase-step fit
+        ``(logh0, u0)`` (``u0`` in the periodogram's convention) up to x1.5 of its altitude
+        (its bias is mostly upward) and down to the lowest altitude the frame rate can test
+        (:meth:`_alias_floor_log`): a start may be many times too high, up to the top of
+        the range where short, nearly non-dispersive waves pass for a frozen pattern in
+        translation.  Of its most prominent peaks, the most prominent one that is
+        significant on every mode is refined on all modes like the aided fit.
         """
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = BLIND_PROFILE_STEP_LOG
-        grid = logh0 + np.arange(-math.log(BLIND_PROFILE_BELOW),
-                                 BLIND_PROFILE_ABOVE_LOG + step / 2, step)
+        low = max(lo, self._alias_floor_log(p, fps, focal_px))
+        top = max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
+        # the grid passes through the start, which is where the continuation begins
+        # (a hair of tolerance keeps ends that are whole steps away on the grid)
+        if logh0 > low:
+            grid = logh0 + np.arange(-math.floor((logh0 - low) / step + 1e-9),
+                                     math.floor((top - logh0) / step + 1e-9) + 1) * step
+        else:
+            grid = low + np.arange(0, math.floor((top - low) / step + 1e-9) + 1) * step
         n = p["kappa"].size
         sub = np.arange(0, n, max(1, n // 1500))
         scan = np.empty(grid.size)
@@ -304,7 +334,7 @@ class _Search:
             for j in order:  # continuation along the ridge
                 scan[j], u = self._best_velocity(p, fps, focal_px, float(grid[j]), u, sub, 0.02)
                 path[j] = u
-        i, prominence, interior = _most_prominent(scan, grid, lo - step, hi + step)
+        i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
         us = np.empty((local.size, 2))
         for j, lg in enumerate(local):
@@ -318,6 +348,34 @@ class _Search:
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
         return {"logh": logh, "u": u, "scan": scan, "interior": interior,
                 "prominence": prominence, "local": local, "vals": vals, "ridge": (grid, ridge)}
+
+    def _significant_peak(self, p: dict[str, Any], fps: float, focal_px: float,
+                          scan: np.ndarray, grid: np.ndarray,
+                          path: np.ndarray) -> tuple[int, float, bool]:
+        """The blind profile's peak (index, prominence, inside the range): of the
+        ``BLIND_PEAK_CANDIDATES`` most prominent, the first whose score on every mode is
+        significant (:func:`null_score`), else the most prominent (:func:`_most_prominent`)."""
+        lo, hi = (math.log(a) for a in self.altitude_range_m)
+        step = grid[1] - grid[0]
+        peaks, prom = peak_prominences(scan)
+        null_mean, null_sd = null_score(p)
+        for k in np.argsort(-prom, kind="stable")[:BLIND_PEAK_CANDIDATES]:
+            j = int(peaks[k])
+            score = float(self._score(p, fps, focal_px, grid[j:j + 1], path[j:j + 1, 0],
+                                      path[j:j + 1, 1])[0])
+            if (score - null_mean) / max(null_sd, 1e-30) >= MIN_SIGNIFICANCE:
+                return j, float(prom[k]), bool(lo - step <= grid[j] <= hi + step)
+        return _most_prominent(scan, grid, lo - step, hi + step)
+
+
+def null_score(p: dict[str, Any]) -> tuple[float, float]:
+    """Mean and standard deviation of the score (the mean share over all modes) under
+    random phase steps: each mode's share averaged over all phase steps gives its mean and
+    variance (cached in ``p``: one periodogram serves several fits)."""
+    if "_null" not in p:
+        q = p["q"]
+        p["_null"] = (float(q.mean()), float(np.sqrt(np.sum(q.var(axis=1)))) / q.shape[0])
+    return p["_null"]
 
 
 def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

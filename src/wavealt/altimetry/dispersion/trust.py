@@ -21,7 +21,7 @@ from wavealt.altimetry.dispersion.constants import (
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
-from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak
+from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, null_score
 
 
 class _Trust:
@@ -88,11 +88,7 @@ class _Trust:
         sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), floor)
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
-        if "_null" not in p:  # one periodogram serves several fits (prior mode: nine)
-            q_all = p["q"]
-            p["_null"] = (float(q_all.mean()),
-                          float(np.sqrt(np.sum(q_all.var(axis=1)))) / q_all.shape[0])
-        null_mean, null_sd = p["_null"]
+        null_mean, null_sd = null_score(p)
         z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_sd, 1e-30)
         # The wave shell of a real sea stands out of the scan as a prominent peak; textures
         # without dispersion (noise, frozen or carried patterns) make at most small bumps on

@@ -23,8 +23,10 @@ of the mode's complex amplitudes over the clip), and scores a candidate
   a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;
 * **blind** (velocity unknown): a per-mode phase-step fit (cross-spectra of consecutive
   frames, Gauss–Newton with Tukey weights on ``(log altitude, u)``) gives a start, and the
-  altitude is the most prominent peak of the score's *profile* over log altitude, the
-  velocity re-fitted at every altitude.  The phase-step fit alone is exact on imagery
+  altitude is the most prominent significant peak of the score's *profile* over log
+  altitude, the velocity re-fitted at every altitude, from x1.5 of the start down to the
+  lowest altitude the frame rate can test (below it nearly every mode's predicted phase
+  step wraps, and a free velocity fits noise).  The phase-step fit alone is exact on imagery
   linear in slope but biased on rendered frames, whose non-linear optics (Fresnel, glint)
   add difference-frequency products that move slower than the waves; the profile needs a
   clip long enough to resolve them (about 1 s).

@@ -79,7 +79,7 @@ from wavealt.altimetry.predict import (
     AltitudePredictor,
     _build_model,
 )
-from wavealt.dataset import Dataset
+from wavealt.dataset import open_dataset
 from wavealt.io import atomic_path, atomic_write_text
 
 
@@ -145,8 +145,9 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
 
     Parameters
     ----------
-    dataset : path
-        A wavealt dataset folder holding ``config.condition``.
+    dataset : path or str
+        A wavealt dataset holding ``config.condition``: a folder, or shards at a path or an
+        fsspec URL (read as a stream, each shard once).
     out : path
         Run folder (created).  It must not hold a run unless ``resume``.
     config : TrainConfig, optional
@@ -168,7 +169,7 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
 
     cfg = config or TrainConfig()
     dev = resolve_device(device)
-    ds = Dataset(dataset)
+    ds = open_dataset(dataset)
     ds.require_condition(cfg.condition)
     out = Path(out)
     last_path = out / CHECKPOINT_LAST
@@ -192,7 +193,8 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
     tr_y = np.array([r.altitude_m for r in train_recs], np.float64)
     va_y = np.array([r.altitude_m for r in val_recs], np.float64)
     stats = _stats(tr_frames, tr_y, cfg)
-    info = {"train": cfg.to_dict(), "stats": stats, "dataset": str(ds.root.resolve()),
+    root = ds.root if isinstance(ds.root, str) else str(ds.root.resolve())
+    info = {"train": cfg.to_dict(), "stats": stats, "dataset": root,
             "dataset_config": ds.config.to_dict(),
             "splits": {"train": len(train_recs), "val": len(val_recs),
                        "test": len(ds.split("test"))},

@@ -34,7 +34,7 @@ from wavealt.cli.parse import number_range
               show_default=True, help="folder: PNG frame folders; shards: WebDataset tar "
               "shards, OUT may then be any fsspec URL (s3://, gs://, ...).")
 @click.option("--shard-size", type=int, default=None,
-              help="Sequences per tar shard with --format shards [32].")
+              help="Sequences per tar shard with --format shards [64].")
 @click.option("--save-surface", is_flag=True, help="Also write each sequence's surface ground truth.")
 @click.option("--figures/--no-figures", default=True, show_default=True,
               help="Write paper Fig. 2 and Fig. 3 into OUT/figures (a local OUT only).")
@@ -59,9 +59,10 @@ def simulate(out: str, preset: str, sequences: int | None, frames: int | None,
         wind_speed_mps=number_range(wind_speed_mps, "wind-speed-mps"),
         glint_severity=number_range(glint_severity, "glint-severity"),
         camera_speed_mps=number_range(camera_speed_mps, "camera-speed-mps"))
+    if shard_size is None:
+        shard_size = DEFAULT_SHARD_SIZE
     simulate_dataset(out, config, workers=workers, cluster=cluster, scheduler=scheduler,
-                     format=fmt, shard_size=shard_size or DEFAULT_SHARD_SIZE,
-                     save_surface=save_surface)
+                     format=fmt, shard_size=shard_size, save_surface=save_surface)
     click.echo(f"dataset: {out} ({config.sequences} sequences x {config.frames} frames, "
                f"{config.size}x{config.size} px, {fmt})")
     if figures and is_url(out):
@@ -161,8 +162,9 @@ def train(dataset: str, run: Path, condition: str, model: str, epochs: int, batc
         msg = f"--resume: {run} holds no training run to continue (drop --resume to start one)"
         raise ValueError(msg)
     res = train_run(dataset, run, cfg, resume=resume, device=device)
-    click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "
-               f"{res['best_val_mae_m']:.3f} m)")
+    if res["rank"] == 0:  # one line from a torchrun of N processes
+        click.echo(f"run: {run} (best epoch {res['best_epoch']}, validation MAE "
+                   f"{res['best_val_mae_m']:.3f} m)")
 
 
 @click.command(short_help="Evaluate an altimeter per condition (Table 2, Fig. 5, 6).")

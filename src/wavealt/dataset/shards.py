@@ -43,14 +43,21 @@ from wavealt.dataset.folder import (
     read_manifest,
     storage_of,
 )
-from wavealt.dataset.location import Location, as_location, atomic_output, join, open_binary
+from wavealt.dataset.location import (
+    Location,
+    as_location,
+    atomic_output,
+    join,
+    open_binary,
+)
 from wavealt.io import decode_png, encode_png, to_uint8
 from wavealt.sim.base import SequenceData
 from wavealt.sim.config import SimConfig
 
-#: The default number of sequences per shard: about 100 MB at 224 px, 10 frames (WebDataset
-#: advises shards of 100 MB to 1 GB: few enough files, small enough to stream and retry).
-DEFAULT_SHARD_SIZE = 32
+#: The default number of sequences per shard: about 100 MB at 224 px, 10 frames (1.5 MB a
+#: sequence; WebDataset advises shards of 100 MB to 1 GB: few files, small enough to stream
+#: and to write again).
+DEFAULT_SHARD_SIZE = 64
 SURFACE_FIELDS = ("height_m", "slope_x", "slope_y")
 _OWNER = "wavealt"
 

@@ -74,6 +74,22 @@ def test_scheduler_writes_the_single_process_bytes_and_resumes(tmp_path, referen
     assert tree_bytes(tmp_path / "f") == tree_bytes(references / "folder")
 
 
+def test_parts_of_a_job_array_write_the_whole_dataset(tmp_path, references, run_cli):
+    argv = ["simulate", str(tmp_path / "a"), "--sequences", "5", "--size", "48", "--frames", "4",
+            "--save-surface", "--no-figures", "--format", "shards", "--shard-size", "2"]
+    for i in (2, 0):
+        code, out, err = run_cli([*argv, "--part", f"{i}/3"])
+        assert code == 0 and f"part {i}/3 done" in out, err
+    names = sorted(p.name for p in (tmp_path / "a" / "shards").iterdir())
+    assert names == ["shard-000000.tar", "shard-000002.tar"]
+    assert run_cli([*argv, "--part", "1/3"])[0] == 0
+    assert run_cli(argv)[0] == 0  # the check without --part: whole, nothing to do
+    assert tree_bytes(tmp_path / "a") == tree_bytes(references / "shards")
+    for bad in ("3/3", "1", "-1/2", "a/b"):
+        code, _, err = run_cli([*argv, "--part", bad])
+        assert code == 2 and err.count("\n") == 1 and "--part must be I/N" in err, err
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

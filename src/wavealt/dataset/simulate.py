@@ -115,8 +115,10 @@ def _describe_storage(st: dict[str, Any]) -> str:
 
 
 def _holds_files(out: Location) -> bool:
+    """Whether ``out`` holds anything but the temporary files of an atomic write (another
+    job of an array may be writing ``dataset.json`` there this very moment)."""
     if not is_url(out):
-        return Path(out).is_dir() and any(Path(out).iterdir())
+        return Path(out).is_dir() and any(not p.name.startswith(".") for p in Path(out).iterdir())
     fs, path = filesystem(str(out))
     try:
         return bool(fs.ls(path, detail=False))
@@ -174,10 +176,22 @@ def _missing(out: Location, records: list, storage: dict[str, Any],
             if not is_file(shard_location(out, k))]
 
 
+def _part_filter(part: tuple[int, int] | None):
+    """The task indices of ``part`` (``(i, n)``: those equal to ``i`` modulo ``n``)."""
+    if part is None:
+        return lambda tasks: list(tasks)
+    i, n = part
+    if not (isinstance(i, int) and isinstance(n, int) and n >= 1 and 0 <= i < n):
+        msg = f"--part must be I/N with 0 <= I < N; got {i}/{n}"
+        raise ValueError(msg)
+    return lambda tasks: [t for t in tasks if t % n == i]
+
+
 def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
                      cluster: str | None = None, scheduler: str | None = None,
                      format: str = "folder", shard_size: int = DEFAULT_SHARD_SIZE,  # noqa: A002
-                     save_surface: bool = False, progress: bool = True) -> Location:
+                     save_surface: bool = False, part: tuple[int, int] | None = None,
+                     progress: bool = True) -> Location:
     """Write the dataset of ``config`` to ``out``.
 
     Parameters
@@ -197,6 +211,10 @@ def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
         (:mod:`wavealt.dataset.shards`, ``shard_size`` sequences per tar).
     save_surface : bool
         Also write each sequence's height and slopes.
+    part : (i, n), optional
+        Write only part ``i`` of ``n`` (``--part I/N``): the sequences (shards) whose index
+        is ``i`` modulo ``n``, so that ``n`` jobs of an array write the dataset together;
+        a run without ``part`` afterwards checks that it is whole (and completes it).
 
     Resumes: the sequences (shards) already complete are kept; a location holding a dataset
     of another config or layout, or other files, is refused untouched. Whatever runs it,
@@ -205,6 +223,7 @@ def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
     out = as_location(out)
     spec: RunnerSpec = runner_spec(workers=workers, cluster=cluster, scheduler=scheduler)
     storage = _storage(format, config, shard_size, save_surface)
+    mine = _part_filter(part)
     _check_out(out, config, storage)
     records = records_of(config)
     with TaskRunner(spec) as runner:  # started (or connected) before anything is written
@@ -218,26 +237,30 @@ def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
                     info["conditions"]["surface"] = {"description": SHARD_SURFACE_DESCRIPTION}
             write_info(out, info)
         write_bytes(join(out, "manifest.csv"), manifest_text(records).encode("utf-8"))
-        todo = _missing(out, records, storage, save_surface)
+        todo = mine(_missing(out, records, storage, save_surface))
+        cfg = config.to_dict()
         if storage["format"] == "folder":
             if save_surface:
                 (Path(out) / "surface").mkdir(exist_ok=True)
-            fn, tasks = _write_one, [(str(out), config.to_dict(), i, save_surface) for i in todo]
-            left = len(todo)
+            fn, tasks = _write_one, [(str(out), cfg, i, save_surface) for i in todo]
+            n_tasks, weight = len(records), (lambda i: 1)
         else:
             size = storage["shard_size"]
-            fn = _write_shard
-            tasks = [(str(out), config.to_dict(), k, size, save_surface) for k in todo]
-            left = sum(min(size, len(records) - k * size) for k in todo)
-        with tqdm(total=len(records), initial=len(records) - left, unit="seq",
+            fn, tasks = _write_shard, [(str(out), cfg, k, size, save_surface) for k in todo]
+            n_tasks = shard_count(len(records), size)
+            weight = lambda k: min(size, len(records) - k * size)  # noqa: E731
+        total = sum(map(weight, mine(range(n_tasks))))
+        left = sum(map(weight, todo))
+        with tqdm(total=total, initial=total - left, unit="seq",
                   desc=f"simulate ({spec.describe()})", disable=not progress) as bar:
             for n in runner.map_unordered(fn, tasks):
                 bar.update(n)
-    lost = _missing(out, records, storage, save_surface)
+    lost = mine(_missing(out, records, storage, save_surface))
     if lost:
-        msg = (f"OUT {out} lacks {len(lost)} of the {'sequences' if storage['format'] == 'folder' else 'shards'} "
-               "the workers reported written: with --scheduler, OUT must be a folder every worker "
-               "shares with this machine, or a URL they all reach")
+        what = "sequences" if storage["format"] == "folder" else "shards"
+        msg = (f"OUT {out} lacks {len(lost)} of the {what} the workers reported written: with "
+               "--scheduler, OUT must be a folder every worker shares with this machine, or a "
+               "URL they all reach")
         raise ValueError(msg)
     if save_surface and storage["format"] == "folder":
         folder = Dataset(out)

@@ -102,12 +102,18 @@ class TaskRunner:
 
     def _connect(self) -> None:
         # deferred: 0.5 s, only for a Dask run
+        import dask
         from distributed import Client, LocalCluster
 
         if self.spec.kind == "dask-local":
-            self._cluster = LocalCluster(
-                n_workers=self.spec.workers, threads_per_worker=1, processes=True,
-                host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
+            # Dask's nannies start workers with MALLOC_TRIM_THRESHOLD_=65536, which fixes
+            # glibc's mmap threshold at 128 KiB: every frame-sized array is then mapped and
+            # unmapped afresh, and the simulator runs 1.5 x slower (measured at 256 px);
+            # the workers get glibc's adaptive default instead (docs/scale.md).
+            with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+                self._cluster = LocalCluster(
+                    n_workers=self.spec.workers, threads_per_worker=1, processes=True,
+                    host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
             self._client = Client(self._cluster)
             return
         addr = self.spec.address

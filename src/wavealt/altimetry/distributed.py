@@ -7,14 +7,14 @@ CUDA, one GPU per process: ``cuda:LOCAL_RANK``) and wraps the model in DDP.
 
 The batches are those of one process. Each epoch's sample order is the single-process one
 (:func:`shuffled_order`) and rank r takes every W-th sample of it (:class:`OrderSampler`,
-a :class:`~torch.utils.data.distributed.DistributedSampler`), so with ``--batch-size B`` and W processes of ``B / W`` samples each, global
-batch j holds exactly the samples of the single-process batch j; DDP averages the gradients
-of the W equal parts, which is the gradient of their mean. What differs: BatchNorm sees
-``B / W`` samples per process on the CPU (``SyncBatchNorm`` works on CUDA only; there it is
-used), the sampler pads the epoch with up to W - 1 repeated samples when W does not divide
-it, and floating-point sums run in another order. Validation is split over the ranks and
-gathered, so every rank keeps the same history; rank 0 alone writes the run folder and shows
-progress.
+a :class:`~torch.utils.data.distributed.DistributedSampler`), so with ``--batch-size B``
+and W processes of ``B / W`` samples each, global batch j holds the samples of the
+single-process batch j, and DDP's mean of the W gradients is the gradient of the batch
+mean. BatchNorm normalises over the global batch (``SyncBatchNorm`` on CUDA,
+:class:`GlobalBatchNorm2d` on the CPU). What still differs from one process: the order of
+floating-point sums, and an epoch whose length W does not divide, which the sampler pads
+with up to W - 1 repeated samples. Validation is split over the ranks and gathered, so
+every rank keeps the same history; rank 0 alone writes the run folder and shows progress.
 """
 
 from __future__ import annotations
@@ -129,12 +129,15 @@ class GlobalBatchNorm2d(torch.nn.BatchNorm2d):
         mean = all_reduce(x.sum(dims)) / count
         xc = x - mean.view(shape)
         var = all_reduce((xc * xc).sum(dims)) / count
-        with torch.no_grad():
-            self.num_batches_tracked += 1
-            m = self.momentum if self.momentum is not None else 1.0 / float(self.num_batches_tracked)
-            n = float(count)
-            self.running_mean.mul_(1 - m).add_(mean.detach(), alpha=m)
-            self.running_var.mul_(1 - m).add_(var.detach() * (n / max(n - 1.0, 1.0)), alpha=m)
+        if self.track_running_stats:
+            with torch.no_grad():
+                self.num_batches_tracked += 1
+                m = (self.momentum if self.momentum is not None
+                     else 1.0 / float(self.num_batches_tracked))
+                n = float(count)
+                self.running_mean.mul_(1 - m).add_(mean.detach(), alpha=m)
+                self.running_var.mul_(1 - m).add_(var.detach() * (n / max(n - 1.0, 1.0)),
+                                                  alpha=m)
         y = xc * torch.rsqrt(var + self.eps).view(shape)
         return y * self.weight.view(shape) + self.bias.view(shape) if self.affine else y
 

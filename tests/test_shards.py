@@ -130,6 +130,11 @@ def test_train_and_evaluate_read_shards_as_the_folder(folder, memory_shards, tmp
         assert code == 0, err
     assert ((tmp_path / "ea" / "metrics.json").read_bytes()
             == (tmp_path / "eb" / "metrics.json").read_bytes())
+    # every condition by default: the frames, not the surfaces (--save-surface)
+    code, _, err = run_cli(["evaluate", memory_shards, "--estimator", "constant",
+                            "--out", str(tmp_path / "ec")])
+    assert code == 0, err
+    assert sorted(json.loads((tmp_path / "ec" / "metrics.json").read_text())) == ["clean", "glinty"]
 
 
 def test_deglint_says_it_needs_a_folder(memory_shards, tmp_path, run_cli):

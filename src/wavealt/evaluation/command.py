@@ -77,7 +77,8 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
     est = parse_estimator(estimator, ds, device=device) if isinstance(estimator, str) else estimator
     if isinstance(est, DispersionEstimator):
         est.bind(ds)
-    conds = list(conditions) if conditions else ds.conditions
+    # surface/ holds ground-truth heights (--save-surface), not frames to estimate from
+    conds = list(conditions) if conditions else [c for c in ds.conditions if c != "surface"]
     if not conds:
         msg = "conditions must name at least one condition"
         raise ValueError(msg)

@@ -18,7 +18,9 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
+from io import BytesIO
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 from natsort import natsorted
@@ -95,10 +97,29 @@ def to_uint8(frames: np.ndarray) -> np.ndarray:
     return np.round(np.clip(frames, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def write_png(path: Path, image: np.ndarray) -> None:
-    """Write one ``(H, W, 3)`` frame (float in [0, 1] or uint8) as an 8-bit RGB PNG."""
+def write_png(path: Path | BinaryIO, image: np.ndarray) -> None:
+    """Write one ``(H, W, 3)`` frame (float in [0, 1] or uint8) as an 8-bit RGB PNG, to a
+    path or a binary stream (the same bytes either way)."""
     img = image if image.dtype == np.uint8 else to_uint8(image)
     Image.fromarray(img, mode=None).save(path, format="PNG", compress_level=1)
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    """The bytes :func:`write_png` writes for ``image``."""
+    buf = BytesIO()
+    write_png(buf, image)
+    return buf.getvalue()
+
+
+def decode_png(data: bytes, name: str) -> np.ndarray:
+    """An image file's bytes as ``(H, W, 3)`` uint8 (exact values); ``name`` says where the
+    bytes came from in the error message."""
+    try:
+        with Image.open(BytesIO(data)) as im:
+            return np.asarray(im.convert("RGB"), dtype=np.uint8)
+    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+        msg = f"cannot read image {name}: {exc}"
+        raise ValueError(msg) from None
 
 
 def read_png(path: Path) -> np.ndarray:
@@ -399,7 +420,8 @@ def sliding_windows(n_frames: int, *, window: int, step: int | None = None) -> I
 
 
 __all__ = ["FPS_TOLERANCE", "GAP_TOLERANCE", "Clip", "atomic_path", "atomic_save_npz",
-           "atomic_write_text", "check_output_folder", "frame_files", "nominal_rate", "publish",
+           "atomic_write_text", "check_output_folder", "decode_png", "encode_png", "frame_files",
+           "nominal_rate", "publish",
            "read_clip", "read_frame_times", "read_frames_folder", "read_input", "read_png",
            "read_video", "read_video_timed", "regular_runs", "sliding_windows", "to_uint8",
            "write_frames_folder", "write_png", "write_video"]

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from wavealt.camera import Camera
-from wavealt.dataset import Dataset
+from wavealt.dataset import Dataset, open_dataset
 from wavealt.deglint import temporal_minimum, tmf_residual
 from wavealt.sim.config import Scenario, preset_config
 from wavealt.sim.generate import generate_sequence
@@ -88,8 +88,9 @@ def figure_generation_steps(height_m: np.ndarray, slope_x: np.ndarray, slope_y: 
 
 def dataset_figures(dataset: Path | str, out: Path | str, *,
                     sequence_id: str | None = None) -> list[Path]:
-    """Fig. 2 and Fig. 3 of one sequence of a dataset (re-synthesised from its seed)."""
-    ds = Dataset(dataset)
+    """Fig. 2 and Fig. 3 of one sequence of a dataset, a folder or shards (re-synthesised
+    from its seed)."""
+    ds = open_dataset(dataset)
     if sequence_id is None:
         test = ds.split("test") or ds.records
         sequence_id = test[0].sequence_id

@@ -122,14 +122,16 @@ class TrainConfig:
 # -- data -------------------------------------------------------------------------------
 def load_sequences(dataset: Any, condition: str, records: Sequence[Any], *,
                    progress: bool = False) -> np.ndarray:
-    """Frames of ``records`` in ``condition`` as uint8 ``(N, T, H, W, 3)`` (PNG values exact)."""
+    """Frames of ``records`` in ``condition`` as uint8 ``(N, T, H, W, 3)`` (PNG values exact),
+    in the order of ``records``; a sharded dataset is read as a stream, each shard once."""
     dataset.require_condition(condition)
-    out = []
-    for r in tqdm(records, desc=f"load {condition}", disable=not progress, leave=False):
-        f = dataset.read_frames(condition, r.sequence_id)
-        out.append(np.round(f * 255.0).astype(np.uint8))
+    got = {}
+    for r, f in tqdm(dataset.iter_sequences(condition, records), total=len(records),
+                     desc=f"load {condition}", disable=not progress, leave=False):
+        got[r.sequence_id] = f
+    out = [got[r.sequence_id] for r in records]
     shapes = {a.shape for a in out}
-    if len(shapes) != 1:
+    if len(shapes) > 1:
         msg = f"sequences of {condition!r} differ in shape: {sorted(shapes)}"
         raise ValueError(msg)
     return np.stack(out)

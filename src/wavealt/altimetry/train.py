@@ -71,6 +71,21 @@ from wavealt.altimetry.device import (
     resolve_device,
     to_device,
 )
+from wavealt.altimetry.distributed import (
+    DistContext,
+    OrderSampler,
+    all_sum,
+    barrier,
+    context_from_env,
+    gather,
+    local_threads,
+    per_rank_batch,
+    shuffled_order,
+    start,
+    stop,
+    sync_buffers,
+    wrap,
+)
 from wavealt.altimetry.predict import (
     CHECKPOINT_BEST,
     CHECKPOINT_LAST,
@@ -79,7 +94,7 @@ from wavealt.altimetry.predict import (
     AltitudePredictor,
     _build_model,
 )
-from wavealt.dataset import Dataset
+from wavealt.dataset import open_dataset
 from wavealt.io import atomic_path, atomic_write_text
 
 
@@ -131,12 +146,18 @@ def _stats(frames: np.ndarray, targets: np.ndarray, cfg: TrainConfig) -> dict[st
 
 
 def _validate(model: ResNetRegressor, frames: np.ndarray, targets: np.ndarray,
-              info: dict[str, Any]) -> float:
-    """Sequence-level validation MAE (m), deterministic centre crop."""
+              info: dict[str, Any], ctx: DistContext) -> float:
+    """Sequence-level validation MAE (m), deterministic centre crop; the sequences are shared
+    out over the ranks and their errors gathered in order, so every rank gets the mean one
+    process would."""
     pred = AltitudePredictor(model, info)
-    errs = [abs(pred.predict_sequence(frames[i]) - float(targets[i])) for i in range(len(frames))]
+    mine = {i: abs(pred.predict_sequence(frames[i]) - float(targets[i]))
+            for i in range(ctx.rank, len(frames), ctx.world_size)}
     model.train()
-    return float(np.mean(errs))
+    errs: dict[int, float] = {}
+    for part in gather(mine, ctx):
+        errs.update(part)
+    return float(np.mean([errs[i] for i in range(len(frames))]))
 
 
 def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = None, *,
@@ -145,8 +166,9 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
 
     Parameters
     ----------
-    dataset : path
-        A wavealt dataset folder holding ``config.condition``.
+    dataset : path or str
+        A wavealt dataset holding ``config.condition``: a folder, or shards at a path or an
+        fsspec URL (read as a stream, each shard once).
     out : path
         Run folder (created).  It must not hold a run unless ``resume``.
     config : TrainConfig, optional
@@ -160,17 +182,31 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         ``auto`` (CUDA, then MPS, then CPU), ``cpu``, ``cuda[:N]`` or ``mps``; recorded in
         ``config.json``. Not part of the config: a run may resume on another device.
 
+    Under ``torchrun`` (``WORLD_SIZE`` > 1) the processes train one model with DDP
+    (:mod:`wavealt.altimetry.distributed`): each takes ``batch_size / WORLD_SIZE`` samples
+    of every batch, rank 0 writes the run folder and shows progress, and each returns the
+    same result.
+
     Returns
     -------
     dict
-        ``{"best_epoch", "best_val_mae_m", "epochs", "history", "seconds"}``.
+        ``{"best_epoch", "best_val_mae_m", "epochs", "history", "seconds", "rank"}``.
     """
-
     cfg = config or TrainConfig()
-    dev = resolve_device(device)
-    ds = Dataset(dataset)
+    ctx = context_from_env()
+    dev = start(ctx, resolve_device(device))
+    try:
+        return _train(dataset, Path(out), cfg, resume=resume, progress=progress and ctx.is_main,
+                      dev=dev, ctx=ctx)
+    finally:
+        stop(ctx)
+
+
+def _train(dataset: Path | str, out: Path, cfg: TrainConfig, *, resume: bool, progress: bool,
+           dev: torch.device, ctx: DistContext) -> dict[str, Any]:
+    ds = open_dataset(dataset)
     ds.require_condition(cfg.condition)
-    out = Path(out)
+    rank_batch = per_rank_batch(cfg.batch_size, ctx)
     last_path = out / CHECKPOINT_LAST
     if last_path.is_file() and not resume:
         msg = f"run folder {out} already holds a training run; continue it with --resume or use a new folder"
@@ -185,20 +221,21 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         msg = "split leakage: a sequence is in train and in val/test"
         raise ValueError(msg)
 
-    n_threads = set_num_threads(cfg.threads)
+    n_threads = set_num_threads(cfg.threads or local_threads(ctx))
     seed_everything(cfg.seed)
     tr_frames = load_sequences(ds, cfg.condition, train_recs, progress=progress)
     va_frames = load_sequences(ds, cfg.condition, val_recs, progress=progress)
     tr_y = np.array([r.altitude_m for r in train_recs], np.float64)
     va_y = np.array([r.altitude_m for r in val_recs], np.float64)
     stats = _stats(tr_frames, tr_y, cfg)
-    info = {"train": cfg.to_dict(), "stats": stats, "dataset": str(ds.root.resolve()),
+    root = ds.root if isinstance(ds.root, str) else str(ds.root.resolve())
+    info = {"train": cfg.to_dict(), "stats": stats, "dataset": root,
             "dataset_config": ds.config.to_dict(),
             "splits": {"train": len(train_recs), "val": len(val_recs),
                        "test": len(ds.split("test"))},
             "train_sequence_ids": sorted(ids_train), "torch": torch.__version__,
             "threads": n_threads, "objective": f"{cfg.loss} on (altitude_m - mean) / std",
-            "device": describe_device(dev)}
+            "device": describe_device(dev), "world_size": ctx.world_size}
 
     model = _build_model(cfg, stats["in_channels"])
     if cfg.pretrained:
@@ -234,8 +271,11 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         stats = old["stats"]
         info["stats"] = stats
 
-    out.mkdir(parents=True, exist_ok=True)
-    _write_json(out / CONFIG_NAME, info)
+    barrier(ctx)  # every rank has read the run folder before rank 0 writes to it
+    if ctx.is_main:
+        out.mkdir(parents=True, exist_ok=True)
+        _write_json(out / CONFIG_NAME, info)
+    net = wrap(model, ctx, dev)
     loss_fn = nn.MSELoss() if cfg.loss == "mse" else nn.L1Loss()
     y_norm = (tr_y - stats["target_mean_m"]) / stats["target_std_m"]
 
@@ -245,13 +285,18 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
         t0 = time.perf_counter()
         model.train()
         items = _TrainItems(tr_frames, y_norm, cfg, stats["crop_px"], epoch)
-        gen = torch.Generator().manual_seed(_derived_seed(cfg.seed, epoch, 3))
+        shuffle_seed = _derived_seed(cfg.seed, epoch, 3)
+        order: dict[str, Any] = {"shuffle": True,
+                                 "generator": torch.Generator().manual_seed(shuffle_seed)}
+        per_rank = len(items)
+        if ctx.active:  # this rank's share of the same order (see distributed.py)
+            order = {"sampler": OrderSampler(items, shuffled_order(len(items), shuffle_seed), ctx)}
+            per_rank = len(order["sampler"])
         # BatchNorm cannot train on a last batch of one sample: drop it when it happens.
-        drop_last = len(items) % cfg.batch_size == 1
         loader = torch.utils.data.DataLoader(
-            items, batch_size=cfg.batch_size, shuffle=True, generator=gen,
-            num_workers=cfg.num_workers, worker_init_fn=_seed_worker, collate_fn=_collate,
-            drop_last=drop_last, pin_memory=dev.type == "cuda")
+            items, batch_size=rank_batch, **order, num_workers=cfg.num_workers,
+            worker_init_fn=_seed_worker, collate_fn=_collate,
+            drop_last=per_rank % rank_batch == 1, pin_memory=dev.type == "cuda")
         total, count = 0.0, 0
         data_s, t_data = 0.0, time.perf_counter()  # the input pipeline's share of the epoch
         for xb, yb in tqdm(loader, desc=f"epoch {epoch + 1}", disable=not progress,
@@ -261,7 +306,7 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
             data_s += time.perf_counter() - t_data
             target = to_device(torch.from_numpy(yb), dev)
             with autocast(dev):
-                pred = model(to_device(inp, dev))
+                pred = net(to_device(inp, dev))
             loss = loss_fn(pred.float(), target)
             opt.zero_grad(set_to_none=True)
             loss.backward()
@@ -271,26 +316,32 @@ def train(dataset: Path | str, out: Path | str, config: TrainConfig | None = Non
             t_data = time.perf_counter()
         lr = float(opt.param_groups[0]["lr"])
         sched.step()
-        val_mae = _validate(model, va_frames, va_y, info)
+        total, count = all_sum([total, count], ctx)
+        count = int(count)
+        sync_buffers(model, ctx)  # BatchNorm's running statistics: rank 0's, on every rank
+        val_mae = _validate(model, va_frames, va_y, info, ctx)
         dt = time.perf_counter() - t0
         seconds += dt
         history.append({"epoch": epoch + 1, "train_loss": total / max(count, 1),
                         "val_mae_m": val_mae, "lr": lr, "seconds": dt,
                         "input_seconds": data_s, "images": count})
-        if val_mae < best["val_mae_m"]:
+        improved = val_mae < best["val_mae_m"]
+        if improved:
             best = {"epoch": epoch + 1, "val_mae_m": val_mae}
-            _atomic_torch_save({"model": model.state_dict(), "epoch": epoch + 1,
-                                "val_mae_m": val_mae}, out / CHECKPOINT_BEST)
-        _atomic_torch_save({"model": model.state_dict(), "optimizer": opt.state_dict(),
-                            "scheduler": sched.state_dict(), "rng": _rng_states(),
-                            "epoch": epoch, "history": history, "best": best,
-                            "seconds": seconds}, last_path)
-        _write_json(out / HISTORY_NAME, history)
+        if ctx.is_main:
+            if improved:
+                _atomic_torch_save({"model": model.state_dict(), "epoch": epoch + 1,
+                                    "val_mae_m": val_mae}, out / CHECKPOINT_BEST)
+            _atomic_torch_save({"model": model.state_dict(), "optimizer": opt.state_dict(),
+                                "scheduler": sched.state_dict(), "rng": _rng_states(),
+                                "epoch": epoch, "history": history, "best": best,
+                                "seconds": seconds}, last_path)
+            _write_json(out / HISTORY_NAME, history)
         bar.set_postfix(loss=f"{total / max(count, 1):.3f}", val_mae=f"{val_mae:.2f}m",
                         best=f"{best['val_mae_m']:.2f}m")
     bar.close()
     return {"best_epoch": best["epoch"], "best_val_mae_m": best["val_mae_m"],
-            "epochs": cfg.epochs, "history": history, "seconds": seconds}
+            "epochs": cfg.epochs, "history": history, "seconds": seconds, "rank": ctx.rank}
 
 
 __all__ = ["train"]

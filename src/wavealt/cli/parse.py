@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 
 def numbers(text: str, name: str, counts: tuple[int, ...], expected: str) -> list[float]:
@@ -32,3 +33,14 @@ def vector(text: str | None, name: str, metavar: str = "X,Y") -> tuple[float, fl
         return None
     vals = numbers(text, name, (2,), f"two finite numbers {metavar}")
     return vals[0], vals[1]
+
+
+def part(text: str | None) -> tuple[int, int] | None:
+    """Parse ``--part I/N`` (0 <= I < N): this job's share of an array of N jobs."""
+    if text is None:
+        return None
+    msg = f"--part must be I/N with 0 <= I < N (this job's index among N); got {text!r}"
+    m = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", text)
+    if m is None or not int(m.group(1)) < int(m.group(2)):
+        raise ValueError(msg)
+    return int(m.group(1)), int(m.group(2))

@@ -10,7 +10,7 @@ import numpy as np
 from PIL import Image
 from tqdm import tqdm
 
-from wavealt.dataset import Dataset
+from wavealt.dataset import Dataset, open_dataset, require_folder
 from wavealt.deglint.methods import (
     METHOD_DESCRIPTIONS,
     PAPER_METHOD,
@@ -84,7 +84,8 @@ def deglint_dataset(dataset: Path | str | Any, *, method: str = PAPER_METHOD,
     _check_method(method)
     _half_window(window)
     window = int(window)
-    ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
+    ds = dataset if isinstance(dataset, Dataset) else open_dataset(dataset)
+    require_folder(ds, "deglint")  # it writes its condition as frame folders
     _check_glinty_folders(ds)
     cond = condition_name(method)
     settings = {"method": method, "window": window}

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from wavealt.dataset import Dataset
+from wavealt.dataset import open_dataset
 from wavealt.evaluation.estimators import (
     CnnEstimator,
     ConstantEstimator,
@@ -52,8 +52,9 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
 
     Parameters
     ----------
-    dataset : path
-        Dataset folder.
+    dataset : path or str
+        A dataset folder, or a sharded dataset (a path or an fsspec URL), read in manifest
+        order so that each shard is read once per condition.
     estimator : str or Estimator
         A spec string (``cnn:RUN``, ``constant:RUN``, ``constant``, ``dispersion``) or object.
     conditions : sequence of str, optional
@@ -72,11 +73,12 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
     if out is not None:
         check_output_folder(out, ("metrics.json",), force=force,
                             what="an evaluation (metrics.json)")
-    ds = Dataset(dataset)
+    ds = open_dataset(dataset)
     est = parse_estimator(estimator, ds, device=device) if isinstance(estimator, str) else estimator
     if isinstance(est, DispersionEstimator):
         est.bind(ds)
-    conds = list(conditions) if conditions else ds.conditions
+    # surface/ holds ground-truth heights (--save-surface), not frames to estimate from
+    conds = list(conditions) if conditions else [c for c in ds.conditions if c != "surface"]
     if not conds:
         msg = "conditions must name at least one condition"
         raise ValueError(msg)

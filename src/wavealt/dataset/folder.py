@@ -1,4 +1,4 @@
-"""The dataset folder: read, write (a simulated one), resume, and the manifest.
+"""The dataset folder, its description (``dataset.json``) and its manifest.
 
 ```
 DATASET/
@@ -11,7 +11,8 @@ DATASET/
 
 Every write is atomic (:mod:`wavealt.io`): a sequence folder is written under a temporary
 name and renamed, ``dataset.json`` / ``manifest.csv`` are written to a temporary file and
-replaced.
+replaced. A sharded dataset (:mod:`wavealt.dataset.shards`) has the same ``dataset.json``
+and ``manifest.csv``, with its frames in tar shards instead of folders.
 """
 
 from __future__ import annotations
@@ -19,25 +20,18 @@ from __future__ import annotations
 import csv
 import io
 import json
-import multiprocessing as mp
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from wavealt import __version__
 from wavealt._checks import read_csv_rows
-from wavealt.io import (
-    atomic_save_npz,
-    atomic_write_text,
-    read_frames_folder,
-    write_frames_folder,
-)
+from wavealt.dataset.location import Location, is_url, join, read_bytes, write_bytes
+from wavealt.io import read_frames_folder, write_frames_folder
 from wavealt.sim.config import Scenario, SimConfig
-from wavealt.sim.generate import generate_sequence
 
 FORMAT = "wavealt-dataset"
 #: 2: the config's renderer and sensor settings are nested objects (1: flat; still read)
@@ -85,14 +79,40 @@ def manifest_text(records: Sequence[SequenceRecord]) -> str:
     return buf.getvalue()
 
 
-def read_manifest(path: Path) -> list[SequenceRecord]:
+def _records_of_rows(rows: Iterable[dict[str, str]]) -> list[SequenceRecord]:
     out = []
-    for row in read_csv_rows(path, MANIFEST_COLUMNS, "manifest"):
+    for row in rows:
         kw: dict[str, Any] = {}
         for c in MANIFEST_COLUMNS[2:]:
             kw[c] = int(row[c]) if c in ("frames", "seed") else float(row[c])
         out.append(SequenceRecord(row["sequence_id"], row["split"], Scenario(**kw)))
     return out
+
+
+def read_manifest(path: Location) -> list[SequenceRecord]:
+    """The rows of a ``manifest.csv`` at a path or a URL."""
+    if not is_url(path):
+        return _records_of_rows(read_csv_rows(path, MANIFEST_COLUMNS, "manifest"))
+    try:
+        text = read_bytes(path).decode("utf-8")
+    except FileNotFoundError:
+        msg = f"manifest not found: {path}"
+        raise FileNotFoundError(msg) from None
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    missing = [c for c in MANIFEST_COLUMNS if c not in (reader.fieldnames or [])]
+    if missing:
+        msg = f"manifest {path} lacks the column(s) {', '.join(missing)}"
+        raise ValueError(msg)
+    return _records_of_rows(reader)
+
+
+def manifest_row(record: SequenceRecord) -> dict[str, Any]:
+    """One manifest row as a dict of typed values, the numbers its CSV line holds."""
+    row: dict[str, Any] = {"sequence_id": record.sequence_id, "split": record.split}
+    for c in MANIFEST_COLUMNS[2:]:
+        v = getattr(record.scenario, c)
+        row[c] = int(v) if c in ("frames", "seed") else round(float(v), 6)
+    return row
 
 
 def records_of(config: SimConfig) -> list[SequenceRecord]:
@@ -112,19 +132,19 @@ class Dataset:
         The folder holding ``dataset.json`` and ``manifest.csv``.
     """
 
+    #: how the frames are stored (``"shards"`` for :class:`~wavealt.dataset.shards.ShardDataset`)
+    storage = "folder"
+
     def __init__(self, root: Path | str) -> None:
+        if is_url(root):
+            msg = (f"{root}: a dataset folder is read from a local path (only a sharded dataset, "
+                   "--format shards, is read from a URL)")
+            raise ValueError(msg)
         self.root = Path(root)
-        info_path = self.root / "dataset.json"
-        if not info_path.is_file():
-            msg = f"not a wavealt dataset: {self.root} has no dataset.json"
-            raise FileNotFoundError(msg)
-        try:
-            self.info = json.loads(info_path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            msg = f"corrupt dataset.json in {self.root}: {exc}"
-            raise ValueError(msg) from None
-        if self.info.get("format") != FORMAT:
-            msg = f"{info_path} is not a wavealt dataset description"
+        self.info = read_info(self.root)
+        if storage_of(self.info).get("format") == "shards":
+            msg = (f"dataset {self.root} is sharded (--format shards); this needs a dataset "
+                   "folder (simulate one with --format folder)")
             raise ValueError(msg)
         self.config = SimConfig.from_dict(self.info["config"])
         self.records = read_manifest(self.root / "manifest.csv")
@@ -184,6 +204,15 @@ class Dataset:
         self.record(seq_id)
         return read_frames_folder(self.sequence_dir(condition, seq_id))
 
+    def iter_sequences(self, condition: str, records: Sequence[SequenceRecord] | None = None
+                       ) -> Iterator[tuple[SequenceRecord, np.ndarray]]:
+        """``(record, frames)`` of ``records`` (default: all) in ``condition``, in the order
+        given; frames are ``(T, H, W, 3)`` uint8, the PNGs' exact values."""
+        self.require_condition(condition)
+        for r in self.records if records is None else records:
+            f = self.read_frames(condition, r.sequence_id)
+            yield r, np.round(f * 255.0).astype(np.uint8)
+
     def write_frames(self, condition: str, seq_id: str, frames: np.ndarray) -> None:
         """Write one sequence of a condition atomically."""
         self.record(seq_id)
@@ -199,8 +228,34 @@ class Dataset:
         write_info(self.root, self.info)
 
 
-def write_info(root: Path, info: dict[str, Any]) -> None:
-    atomic_write_text(Path(root) / "dataset.json", json.dumps(info, indent=2, sort_keys=True) + "\n")
+def read_info(root: Location) -> dict[str, Any]:
+    """The ``dataset.json`` of the dataset at ``root`` (a folder or a URL), checked to be one."""
+    info_path = join(root, "dataset.json")
+    try:
+        text = read_bytes(info_path).decode("utf-8")
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError):
+        msg = f"not a wavealt dataset: {root} has no dataset.json"
+        raise FileNotFoundError(msg) from None
+    try:
+        info = json.loads(text)
+    except json.JSONDecodeError as exc:
+        msg = f"corrupt dataset.json in {root}: {exc}"
+        raise ValueError(msg) from None
+    if not isinstance(info, dict) or info.get("format") != FORMAT:
+        msg = f"{info_path} is not a wavealt dataset description"
+        raise ValueError(msg)
+    return info
+
+
+def storage_of(info: dict[str, Any]) -> dict[str, Any]:
+    """How a dataset stores its frames: ``{"format": "folder"}`` (no ``storage`` entry) or
+    ``{"format": "shards", "shard_size": N, "shards": K}``."""
+    return dict(info.get("storage") or {"format": "folder"})
+
+
+def write_info(root: Location, info: dict[str, Any]) -> None:
+    text = json.dumps(info, indent=2, sort_keys=True) + "\n"
+    write_bytes(join(root, "dataset.json"), text.encode("utf-8"))
 
 
 def new_info(config: SimConfig) -> dict[str, Any]:
@@ -232,88 +287,7 @@ def records_of_index(config: SimConfig, index: int) -> SequenceRecord:
     return SequenceRecord(sequence_id(index), config.splits()[index], config.sample_scenario(index))
 
 
-# -- a simulated dataset to disk --------------------------------------------------------
-def _write_one(args: tuple[str, dict, int, bool]) -> int:
-    root_s, cfg_dict, index, save_surface = args
-    root = Path(root_s)
-    config = SimConfig.from_dict(cfg_dict)
-    rec = records_of_index(config, index)
-    need = [c for c in ("clean", "glinty") if not (root / c / rec.sequence_id).is_dir()]
-    surf_path = root / "surface" / f"{rec.sequence_id}.npz"
-    need_surface = save_surface and not surf_path.is_file()
-    if not need and not need_surface:
-        return index
-    data = generate_sequence(rec.scenario, config, with_height=need_surface)
-    for c in need:
-        write_frames_folder(root / c / rec.sequence_id, getattr(data, c))
-    if need_surface:
-        atomic_save_npz(surf_path, height_m=data.height_m, slope_x=data.slope_x,
-                        slope_y=data.slope_y)
-    return index
-
-
-def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """A nested config dict as ``{"sensor.compression": ..., ...}`` (for messages)."""
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flat(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
-
-def simulate_dataset(out: Path | str, config: SimConfig, *, workers: int = 1,
-                     save_surface: bool = False, progress: bool = True) -> Path:
-    """Write the dataset of ``config`` to ``out`` (the layout in this module's docstring).
-
-    Resumes: sequences already complete are kept; a folder holding a dataset of another
-    config is refused untouched.  ``workers`` processes give the same bytes as one.
-    """
-    out = Path(out)
-    if int(workers) != workers or workers < 1:
-        msg = f"workers must be a positive integer; got {workers!r}"
-        raise ValueError(msg)
-    if out.exists() and not out.is_dir():
-        msg = f"OUT {out} is an existing file; give a folder for the dataset"
-        raise ValueError(msg)
-    if (out / "dataset.json").is_file():
-        existing = Dataset(out).config
-        if existing != config:
-            a, b = _flat(existing.to_dict()), _flat(config.to_dict())
-            diff = ", ".join(f"{k}: {a.get(k, '-')!r} -> {b.get(k, '-')!r}"
-                             for k in sorted(a.keys() | b.keys()) if a.get(k) != b.get(k))
-            msg = f"OUT {out} holds a dataset made with a different config ({diff}); choose another folder"
-            raise ValueError(msg)
-    elif out.is_dir() and any(out.iterdir()):
-        msg = f"OUT {out} is a non-empty folder that holds no wavealt dataset; choose another folder"
-        raise ValueError(msg)
-    out.mkdir(parents=True, exist_ok=True)
-    records = records_of(config)
-    if not (out / "dataset.json").is_file():
-        write_info(out, new_info(config))
-    atomic_write_text(out / "manifest.csv", manifest_text(records))
-    todo = ids_missing(out, records, ("clean", "glinty"), save_surface)
-    if save_surface:
-        (out / "surface").mkdir(exist_ok=True)
-    tasks = [(str(out), config.to_dict(), i, save_surface) for i in todo]
-    bar = tqdm(total=len(records), initial=len(records) - len(todo), desc="simulate",
-               unit="seq", disable=not progress)
-    try:
-        if workers == 1 or len(tasks) <= 1:
-            for t in tasks:
-                _write_one(t)
-                bar.update()
-        else:
-            ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-            with ctx.Pool(int(workers)) as pool:
-                for _ in pool.imap_unordered(_write_one, tasks):
-                    bar.update()
-    finally:
-        bar.close()
-    if save_surface:
-        info = Dataset(out).info
-        info["conditions"]["surface"] = {"description": "ground truth per sequence: surface/<id>.npz "
-                                         "with height_m, slope_x, slope_y (T, H, W) float32"}
-        write_info(out, info)
-    return out
+__all__ = ["BASE_CONDITIONS", "FORMAT", "FORMAT_VERSION", "MANIFEST_COLUMNS", "Dataset",
+           "SequenceRecord", "ids_missing", "manifest_row", "manifest_text", "new_info",
+           "read_info", "read_manifest", "records_of", "records_of_index", "sequence_id",
+           "storage_of", "write_info"]

@@ -42,3 +42,27 @@ def run_cli(capsys):
         return code, out.out, out.err
 
     return run
+
+
+@pytest.fixture
+def interrupt_training(monkeypatch):
+    """``interrupt_training()``: the next training run stops with KeyboardInterrupt as its
+    second validation begins (after one whole epoch, as Ctrl-C would); returns the real
+    ``_validate`` to put back."""
+    import wavealt.altimetry.train as train_mod
+
+    real = train_mod._validate
+
+    def arm():
+        calls = {"n": 0}
+
+        def interrupt_in_epoch_2(*args, **kwargs):
+            calls["n"] += 1
+            if calls["n"] == 2:
+                raise KeyboardInterrupt
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(train_mod, "_validate", interrupt_in_epoch_2)
+        return real
+
+    return arm

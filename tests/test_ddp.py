@@ -70,19 +70,9 @@ def test_torchrun_two_processes_train_as_one(tiny_dataset, single, tmp_path):
                                                      "last.pt"]
 
 
-def test_torchrun_resumes_a_run(tiny_dataset, single, tmp_path, monkeypatch):
+def test_torchrun_resumes_a_run(tiny_dataset, single, tmp_path, interrupt_training):
     """A run cut after its first epoch (here by one process) is finished by two."""
-    import wavealt.altimetry.train as train_mod
-
-    real, calls = train_mod._validate, {"n": 0}
-
-    def interrupt_in_epoch_2(*args, **kwargs):
-        calls["n"] += 1
-        if calls["n"] == 2:
-            raise KeyboardInterrupt
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(train_mod, "_validate", interrupt_in_epoch_2)
+    interrupt_training()
     cfg = TrainConfig(condition="bright", model="resnet-tiny", epochs=2, batch_size=8, lr=3e-3,
                       threads=1)
     with pytest.raises(KeyboardInterrupt):

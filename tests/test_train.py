@@ -41,20 +41,12 @@ def test_checkpoint_roundtrip_bit_for_bit(tiny_dataset, tmp_path) -> None:
     assert _states_equal(saved, torch.load(tmp_path / "again.pt", weights_only=True))
 
 
-def test_resume_after_interrupt_equals_uninterrupted(tiny_dataset, tmp_path, monkeypatch) -> None:
+def test_resume_after_interrupt_equals_uninterrupted(tiny_dataset, tmp_path, monkeypatch,
+                                                      interrupt_training) -> None:
     cfg = TrainConfig(condition="bright", epochs=3, **TINY)
     train(tiny_dataset, tmp_path / "full", cfg, progress=False)
 
-    real = train_mod._validate
-    calls = {"n": 0}
-
-    def interrupt_in_epoch_2(*args, **kwargs):
-        calls["n"] += 1
-        if calls["n"] == 2:
-            raise KeyboardInterrupt
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(train_mod, "_validate", interrupt_in_epoch_2)
+    real = interrupt_training()
     with pytest.raises(KeyboardInterrupt):
         train(tiny_dataset, tmp_path / "cut", cfg, progress=False)
     monkeypatch.setattr(train_mod, "_validate", real)

@@ -123,6 +123,14 @@ def records_of(config: SimConfig) -> list[SequenceRecord]:
 
 
 # -- the dataset ------------------------------------------------------------------------
+def records_of_split(records: Iterable[SequenceRecord], name: str) -> list[SequenceRecord]:
+    """The records of split ``name`` (train, val or test), in manifest order."""
+    if name not in ("train", "val", "test"):
+        msg = f"split must be train, val or test; got {name!r}"
+        raise ValueError(msg)
+    return [r for r in records if r.split == name]
+
+
 class Dataset:
     """A dataset folder on disk.
 
@@ -161,10 +169,7 @@ class Dataset:
             raise ValueError(msg) from None
 
     def split(self, name: str) -> list[SequenceRecord]:
-        if name not in ("train", "val", "test"):
-            msg = f"split must be train, val or test; got {name!r}"
-            raise ValueError(msg)
-        return [r for r in self.records if r.split == name]
+        return records_of_split(self.records, name)
 
     @property
     def conditions(self) -> list[str]:

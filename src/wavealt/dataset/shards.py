@@ -41,6 +41,7 @@ from wavealt.dataset.folder import (
     manifest_row,
     read_info,
     read_manifest,
+    records_of_split,
     storage_of,
 )
 from wavealt.dataset.location import (
@@ -189,10 +190,7 @@ class ShardDataset:
         return self.records[self._position[seq_id]]
 
     def split(self, name: str) -> list[SequenceRecord]:
-        if name not in ("train", "val", "test"):
-            msg = f"split must be train, val or test; got {name!r}"
-            raise ValueError(msg)
-        return [r for r in self.records if r.split == name]
+        return records_of_split(self.records, name)
 
     @property
     def conditions(self) -> list[str]:

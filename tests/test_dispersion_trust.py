@@ -126,16 +126,30 @@ def test_a_prior_that_excludes_the_truth_is_not_confidently_wrong(offset_mps) ->
     _assert_honest(res, h)
 
 
-def test_the_prior_widens_the_uncertainty_of_the_exact_fit() -> None:
-    """Same clip, same mean velocity: sigma > 0 can only add uncertainty."""
-    data, sc, cfg = _realistic(3.0, 0.5, 11, frames=10)
+@pytest.mark.parametrize(("h", "seed", "frames"), [(3.0, 11, 10), (5.0, 3, 30)])
+def test_a_prior_widens_the_exact_fit_and_never_trusts_a_velocity_outside_it(h, seed,
+                                                                             frames) -> None:
+    """Same clip: where a prior's result is the exact fit at its mean, its uncertainty is no
+    smaller than the exact fit's; where it is the blind search's, a velocity beyond 3 sigma
+    of the prior's mean is not trusted, and says why."""
+    data, sc, cfg = _realistic(h, 0.5, seed, frames=frames)
     est = DispersionAltimeter()
-    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
-    exact = est.estimate(data.clean, **kw)
-    prior = est.estimate(data.clean, velocity_sigma_mps=0.5, **kw)
-    assert (exact.mode, prior.mode) == ("exact", "prior")
-    assert prior.altitude_m == pytest.approx(exact.altitude_m)
-    assert prior.altitude_std_m >= exact.altitude_std_m
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px}
+    exact = est.estimate(data.clean, velocity_mps=sc.camera_velocity_mps, **kw)
+    for sigma in (0.05, 1.0):
+        for offset in ((0.0, 0.0), (2.0, 0.0)):
+            mean = tuple(np.add(sc.camera_velocity_mps, offset))
+            prior = est.estimate(data.clean, velocity_mps=mean, velocity_sigma_mps=sigma, **kw)
+            assert prior.mode == "prior"
+            if offset == (0.0, 0.0) and np.isclose(prior.altitude_m, exact.altitude_m):
+                assert prior.altitude_std_m >= exact.altitude_std_m
+            off = np.hypot(*np.subtract(prior.camera_velocity_mps, mean))
+            if off > 3.0 * sigma:
+                assert not prior.trusted and prior.reason
+    # a prior 2 m/s off with sigma 0.05 m/s: the blind search's velocity lies far outside
+    far = est.estimate(data.clean, velocity_mps=tuple(np.add(sc.camera_velocity_mps, (2, 0))),
+                       velocity_sigma_mps=0.05, **kw)
+    assert not far.trusted
 
 
 @pytest.mark.xfail(strict=True, reason=(

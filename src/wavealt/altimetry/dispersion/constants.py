@@ -99,3 +99,7 @@ ALIAS_MODE_FRACTION = 0.3
 #: bump of noise can outdo a weak shell in prominence (tuning seed 202, glinty: mean |log
 #: error| 0.082 -> 0.066).
 BLIND_PEAK_CANDIDATES = 4
+#: A velocity prior keeps the blind search's velocity within this many sigmas of its mean
+#: (a disk; :meth:`DispersionAltimeter._fit_blind`): a 2-D normal error of ``sigma`` per
+#: axis lies within it with probability ``1 - exp(-PRIOR_SIGMAS^2 / 2)`` = 0.989.
+PRIOR_SIGMAS = 3.0

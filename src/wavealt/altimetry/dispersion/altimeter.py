@@ -297,13 +297,14 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Trust):
                     res = alt
                     res.signal = "full"
             return res
-        spread = None if prior is None else self._prior(p, t, fps, focal_px, prior)
-        if spread is not None and self._distrust(spread) is None:
-            return spread
+        if prior is not None:
+            spread = self._prior(p, t, fps, focal_px, prior)
+            if self._distrust(spread) is None:
+                return spread
         m = self._modes(signal)
         start = self._phase_step_fit(m, fps, focal_px) if m["kappa"].size >= 12 else {}
         if not start:
-            return self._failed(t) if spread is None else spread
+            return self._failed(t) if prior is None else spread
         if prior is None:
             fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"])
             return self._result(p, fit, t, fps, focal_px)
@@ -313,11 +314,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Trust):
         # 94-115 % / 79-106 % off (realistic preset, 10 frames, sigma 1 m/s, seeds 202, 23,
         # 31): a current of up to 1 m/s moves the shell it assumes.
         vx, vy, sigma = prior
-        fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"],
-                              (vx, vy, PRIOR_SIGMAS * sigma))
+        radius = PRIOR_SIGMAS * sigma
+        fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"], (vx, vy, radius))
         res = self._result(p, fit, t, fps, focal_px)
         off = math.hypot(res.camera_velocity_mps[0] - vx, res.camera_velocity_mps[1] - vy)
-        if off > PRIOR_SIGMAS * sigma:
+        if off > radius:
             res.reason = (f"velocity {off:.2f} m/s from the prior's mean, beyond "
                           f"{PRIOR_SIGMAS:g} sigma")
         return res

@@ -297,8 +297,8 @@ class _Search:
     def _fit_blind(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                    logh0: float, u0: np.ndarray,
                    prior: tuple[float, float, float] | None = None) -> dict[str, Any]:
-        """Velocity unknown (or known to a disk, ``prior``): the profile of the periodogram score over log altitude, the
-        velocity re-fitted at every altitude.
+        """Velocity unknown (or known to a disk, ``prior``): the profile of the periodogram
+        score over log altitude, the velocity re-fitted at every altitude.
 
         The per-mode phase steps of the cross-spectra are biased on rendered frames: the
         difference-frequency products of the non-linear optics (wave groups, which move at

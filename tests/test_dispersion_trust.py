@@ -152,6 +152,56 @@ def test_a_prior_widens_the_exact_fit_and_never_trusts_a_velocity_outside_it(h, 
     assert not far.trusted
 
 
+def test_exact_short_clips_of_a_high_camera_keep_the_contract() -> None:
+    """Exact velocity, 10 frames, 10-15 m, any wind and drift: the waves turn by about a
+    periodogram bin over the clip, and no estimate is trusted beyond what that resolves."""
+    cfg = preset_config("paper", size=128, frames=10, altitude_m=(10.0, 15.0),
+                        wind_speed_mps=(2.0, 12.0), camera_speed_mps=(0.0, 1.0))
+    est = DispersionAltimeter(dispersion="gravity")
+    for seed in range(40):
+        sc = cfg.sample_scenario(seed)
+        data = generate_sequence(sc, cfg)
+        for frames in (data.clean, data.glinty):
+            res = est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px,
+                               velocity_mps=sc.camera_velocity_mps)
+            _assert_honest(res, sc.altitude_m)
+
+
+def _uniform_periodogram(kappa: np.ndarray, frames: int) -> dict:
+    """A periodogram whose every mode explains every phase step equally (weights all one),
+    its modes along +x."""
+    return {"q": np.ones((kappa.size, 64), dtype=np.float32), "kx": kappa,
+            "ky": np.zeros_like(kappa), "kappa": kappa, "frames": frames}
+
+
+def test_the_resolution_of_a_clip_follows_the_dispersion_relation() -> None:
+    """The log altitude a periodogram bin spans: (2 pi / T) sum|g| / sum g^2 with
+    g = d psi / d log h; a still camera over gravity waves has g = omega / (2 fps), so it
+    halves when the clip doubles and grows as sqrt(h); a known drift adds kappa . u to g
+    and so resolves more."""
+    est = DispersionAltimeter(dispersion="gravity")
+    kappa = np.linspace(0.3, 2.5, 50)
+    fps, focal_px, h = 30.0, 200.0, 9.0
+    u0 = np.zeros(2)
+    r10 = est._resolution_log(_uniform_periodogram(kappa, 10), np.log(h), u0, fps, focal_px)
+    g = 0.5 * est.omega(kappa * focal_px / h) / fps
+    assert r10 == pytest.approx(2.0 * np.pi / 10 * g.sum() / (g**2).sum(), rel=1e-9)
+    r20 = est._resolution_log(_uniform_periodogram(kappa, 20), np.log(h), u0, fps, focal_px)
+    assert r20 == pytest.approx(r10 / 2.0, rel=1e-9)
+    r_high = est._resolution_log(_uniform_periodogram(kappa, 10), np.log(4.0 * h), u0, fps,
+                                 focal_px)
+    assert r_high == pytest.approx(2.0 * r10, rel=1e-9)
+    # the camera moving along +x at 0.1 px per frame (its velocity known): every mode's step
+    # moves by kappa u more per unit of log altitude
+    drift = est._resolution_log(_uniform_periodogram(kappa, 10), np.log(h),
+                                np.array([-0.1, 0.0]), fps, focal_px)
+    assert drift < r10
+    # no mode that moves with the altitude: nothing to resolve it
+    flat = est._resolution_log({**_uniform_periodogram(kappa, 10), "kappa": kappa * 0.0,
+                                "kx": kappa * 0.0}, np.log(h), u0, fps, focal_px)
+    assert flat == np.inf
+
+
 @pytest.mark.xfail(strict=True, reason=(
     "known miss (issue 16): imagery of the squared slope alone carries sum-frequency "
     "products between the shell and its harmonic; exact fits read 0.62-0.99 h and some are "

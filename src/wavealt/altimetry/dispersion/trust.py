@@ -16,6 +16,7 @@ from wavealt.altimetry.dispersion.constants import (
     MAX_TRUSTED_3SIGMA,
     MIN_SIGNIFICANCE,
     PROFILE_PROMINENCE,
+    RESOLUTION_FRACTION,
     SCAN_PROMINENCE,
     SD_FLOOR_LOG,
     TRUSTED_QUALITY,
@@ -103,6 +104,10 @@ class _Trust:
             # the aided scan's fine-grid spread does not see a second peak: an ill-graded
             # fit must not look precise
             sd_logh = sd_logh + (1.0 - q) ** 3
+            # and no more precise than the clip's resolution allows (after the grading,
+            # which the statistical spread alone sets)
+            sd_logh = math.hypot(sd_logh, RESOLUTION_FRACTION
+                                 * self._resolution_log(p, logh, u, fps, focal_px))
         alt = math.exp(logh)
         # u is the camera's image velocity over the water (px/frame)
         vel = (float(u[0] * fps * alt / focal_px), float(u[1] * fps * alt / focal_px))
@@ -110,6 +115,42 @@ class _Trust:
                                 camera_velocity_mps=vel, quality=q, trusted=False, reason=None,
                                 mode="blind", frames=int(t), n_modes=int(n),
                                 significance=z)
+
+    def _resolution_log(self, p: dict[str, Any], logh: float, u: np.ndarray, fps: float,
+                        focal_px: float) -> float:
+        """How far, in log altitude, shifting every mode's peak by one periodogram bin
+        (``2 pi / T`` rad per frame) moves an aided estimate at ``(logh, u)``.
+
+        Each mode's predicted phase step ``psi = s omega / fps - kappa . u`` (its better
+        branch ``s``, :meth:`_branch_values`) moves with the altitude at the rate
+        ``g = d psi / d log h = s (d omega / d log h) / fps + kappa . u`` (the velocity is
+        fixed in m/s, so in px per frame it scales as ``1 / h``).  Weighted by the modes'
+        explained shares ``w`` at the estimate, a shift ``delta`` of every peak along ``g``
+        moves the least-squares altitude by ``delta sum(w |g|) / sum(w g^2)``.  The peaks
+        of a short clip are ``2 pi / T`` wide, and whatever shares them (the optics'
+        products, waves the other way, the temporal window's leakage) shifts them by a part
+        of that which the mode groups share: a clip that turns its waves by less than a
+        bin (high altitude, few frames) cannot place the shell to better than the
+        corresponding part of the result, however well its groups agree.
+        """
+        t = int(p["frames"])
+        kappa, kx, ky = p["kappa"], p["kx"], p["ky"]
+        om, dom = self._omega_and_dlog(kappa, focal_px, math.exp(logh))
+        dop = kx * float(u[0]) + ky * float(u[1])  # px/frame . rad/px
+        q = p["q"]
+        n_psi = q.shape[1]
+        rows = np.arange(kappa.size)
+        best = rate = None
+        for s in (1.0, -1.0):
+            pos = np.mod(s * om / fps - dop, 2.0 * np.pi) * (n_psi / (2.0 * np.pi))
+            val = q[rows, np.rint(pos).astype(np.int64) % n_psi].astype(np.float64)
+            g = np.abs(s * dom / fps + dop)
+            rate = g if best is None else np.where(val > best, g, rate)
+            best = val if best is None else np.maximum(best, val)
+        den = float(np.sum(best * rate**2))
+        if den <= 1e-30:
+            return math.inf
+        return (2.0 * np.pi / t) * float(np.sum(best * rate)) / den
 
     def _distrust(self, res: DispersionResult) -> str | None:
         """Why a finished fit may not be trusted, None when it may (:meth:`_judge`)."""

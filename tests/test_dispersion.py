@@ -515,6 +515,21 @@ def test_peak_prominences_equal_scipys() -> None:
         np.testing.assert_allclose(prom, props["prominences"])
 
 
+def test_a_phase_step_start_where_every_mode_wraps_gives_no_start() -> None:
+    """A start so low that every mode's wave phase step wraps (more than 0.9 pi a frame)
+    leaves nothing to fit: no start, not an error (modes of 1.6-2.3 rad/px: at 0.5 m and
+    f = 200 px, 5-7 rad a frame at 30 fps; at 5 m, 0.9-1.1)."""
+    rng = np.random.default_rng(0)
+    n = 200
+    kx, ky = rng.uniform(1.6, 2.0, n), rng.uniform(-1.2, 1.2, n)
+    m = {"kappa": np.hypot(kx, ky), "kx": kx, "ky": ky,
+         "psi": rng.uniform(-np.pi, np.pi, n), "weight": np.ones(n)}
+    est = DispersionAltimeter()
+    assert est._refine(m, 30.0, 200.0, 0.5, np.zeros(2)) == {}
+    # from 5 m the same modes do turn slowly enough to be fitted
+    assert "logh" in est._refine(m, 30.0, 200.0, 5.0, np.zeros(2))
+
+
 @pytest.mark.parametrize("dispersion", ["gravity", "gravity-capillary"])
 def test_alias_floor_is_where_the_quantile_mode_turns_half_a_cycle(dispersion: str) -> None:
     """The blind profile's lowest altitude: there the modes' ALIAS_MODE_FRACTION quantile

@@ -110,6 +110,7 @@ class _Start:
         logh = math.log(alt)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         out: dict[str, Any] = {}
+        hess = None
         for kb in bands:
             for _ in range(6):
                 h = math.exp(logh)
@@ -135,8 +136,9 @@ class _Start:
                 u = u + step[1:]
                 if abs(step[0]) < 1e-5 and np.max(np.abs(step[1:])) < 1e-4:
                     break
-            out = {"logh": logh, "u": u.copy(), "use": use, "r": r, "tw": tw, "hess": hess,
-                   "s": s}
+            if hess is not None:  # else no band has had six usable modes yet
+                out = {"logh": logh, "u": u.copy(), "use": use, "r": r, "tw": tw,
+                       "hess": hess, "s": s}
         if out:
             # arbiter between starts: robust misfit of every mode, wrapped or not
             out["cost"] = float(np.sum(w0 * np.minimum(out["r"] ** 2, TUKEY_C_RAD**2)))

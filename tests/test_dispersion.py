@@ -14,6 +14,7 @@ from wavealt.altimetry.dispersion import (
     _wrap,
     estimate_altitude,
 )
+from wavealt.altimetry.dispersion.constants import MIN_PROMINENCE_Z
 from wavealt.altimetry.series import altitude_series
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -572,3 +573,54 @@ def test_blind_profile_reaches_down_from_a_start_pinned_at_the_top() -> None:
     assert floor <= grid[0] < floor + (grid[1] - grid[0]) + 1e-9
     assert grid[-1] == pytest.approx(np.log(hi) + 0.4, abs=1e-9)
     assert abs(np.exp(fit["logh"]) - h) / h < 0.06
+
+
+def test_a_point_of_the_blind_profile_left_in_a_poor_velocity_is_searched_again() -> None:
+    """The profile is the score maximised over the velocity at every altitude: a point the
+    continuation left at a poor local maximum (a velocity far off) lies below both of its
+    neighbours, and searching again from theirs raises it back onto the ridge; no point is
+    lowered."""
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    grid = np.log(h) + np.arange(-6, 7) * 0.05
+    u_true = -np.asarray(camera_v) * focal_px / (h * 30.0)  # the water's image velocity
+    scan, path = np.empty(grid.size), np.empty((grid.size, 2))
+    for j, lg in enumerate(grid):
+        scan[j], path[j] = est._best_velocity(p, 30.0, focal_px, float(lg), u_true, None, 0.02)
+    ridge_scan, ridge_path = scan.copy(), path.copy()
+    j = 6
+    far = u_true + np.array([3.0, -2.0])
+    scan[j], path[j] = est._best_velocity(p, 30.0, focal_px, float(grid[j]), far, None, 0.02)
+    assert scan[j] < 0.8 * min(scan[j - 1], scan[j + 1])  # a dip of one point
+    est._fill_dips(p, 30.0, focal_px, grid, scan, path, None)
+    assert np.allclose(path[j], ridge_path[j], atol=0.02)
+    # a search again only ever raises a point (here also two the ridge's own search left
+    # a little low)
+    assert np.all(scan >= ridge_scan * (1.0 - 1e-6))
+    assert scan[j] >= 0.98 * ridge_scan[j]
+
+
+def test_a_blind_peak_no_higher_than_the_profiles_noise_is_not_trusted() -> None:
+    """The blind profile's peak must stand out of the profile by MIN_PROMINENCE_Z standard
+    deviations of the profile's score under random phase steps; a bump within that is no
+    shell, however far the profile as a whole lies above random (a texture without
+    waves), and the fit says so."""
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    fit = est._fit_blind(p, 30.0, focal_px, np.log(h), np.zeros(2))
+    n = p["kappa"].size
+    q = p["q"][np.arange(0, n, max(1, n // 1500))]
+    noise = np.sqrt(np.sum(q.var(axis=1))) / q.shape[0]
+    assert fit["prominence_z"] == pytest.approx(fit["prominence"] / noise, rel=1e-6)
+    assert fit["prominence_z"] > MIN_PROMINENCE_Z
+    res = est._judge(est._result(p, fit, 30, 30.0, focal_px))
+    assert res.trusted and abs(res.altitude_m - h) / h < 0.05
+    # the same peak, standing out of its profile by less than the noise bar
+    weak = est._judge(est._result(p, {**fit, "prominence_z": 0.99 * MIN_PROMINENCE_Z}, 30,
+                                  30.0, focal_px))
+    assert weak.quality == 0.0 and not weak.trusted
+    assert weak.reason == "no prominent wave-shell peak"

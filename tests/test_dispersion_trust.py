@@ -90,7 +90,8 @@ def test_a_still_frame_carried_across_the_image_is_never_trusted(mode: str, shif
     assert not res.trusted
 
 
-@pytest.mark.parametrize(("h", "drift", "seed"), [(2.0, 0.3, 5), (6.0, 0.8, 6), (11.0, 0.5, 7)])
+@pytest.mark.parametrize(("h", "drift", "seed"), [(2.0, 0.3, 5), (5.0, 0.5, 3), (6.0, 0.8, 6),
+                                                (11.0, 0.5, 7)])
 def test_blind_through_the_realistic_renderer_is_honest(h: float, drift: float, seed: int) -> None:
     """Blind, 1 s: every estimate keeps the contract, whether or not it is trusted."""
     data, sc, cfg = _realistic(h, drift, seed)

@@ -40,10 +40,15 @@ whose velocity lies beyond that is not trusted.
 
 Every result carries a trust decision (:meth:`DispersionAltimeter._judge`): the shell's
 peak must stand out of what random phase steps would give (significance), be prominent in
-the altitude scan (quality), have a 3-sigma interval within 10 % of the altitude, and lie
-inside the altitude range searched.  The uncertainty is the spread of the peak over bands
-of wavenumber (the true shell gives one altitude at every wavenumber; the optics' products
-do not) plus a systematic floor; an untrusted window's interval spans the whole range.
+the altitude scan (quality; blind, its prominence must also exceed five standard
+deviations of the profile's noise), have a 3-sigma interval within 10 % of the altitude,
+and lie inside the altitude range searched.  The uncertainty is the spread of the peak
+over bands of wavenumber (the true shell gives one altitude at every wavenumber; the
+optics' products do not) plus a systematic floor and, velocity known, the part of a
+periodogram bin (``2 pi / T`` a frame) that the clip's phase steps resolve at the
+estimate; an untrusted window's interval spans the whole range.  The blind profile is the
+score maximised over the velocity, so a point the continuation leaves below both of its
+neighbours is searched again from theirs.
 Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or
 removed with the colour (chroma) signal.
 

@@ -14,6 +14,7 @@ from wavealt.altimetry.dispersion.constants import (
     FULL_CLIP_FRAMES,
     GROUP_PEAK_WITHIN_LOG,
     MAX_TRUSTED_3SIGMA,
+    MIN_PROMINENCE_Z,
     MIN_SIGNIFICANCE,
     PROFILE_PROMINENCE,
     RESOLUTION_FRACTION,
@@ -99,6 +100,8 @@ class _Trust:
         q = float(np.clip((rel_prom - start) / span, 0.0, 1.0))
         if not fit["interior"]:
             q = 0.0  # the most prominent peak lies outside the altitude range, or none
+        if profile and fit["prominence_z"] < MIN_PROMINENCE_Z:
+            q = 0.0  # a bump no higher above the profile's own floor than its noise
         q *= float(np.clip(1.0 - sd_logh / 0.1, 0.0, 1.0))
         if not profile:
             # the aided scan's fine-grid spread does not see a second peak: an ill-graded

@@ -179,9 +179,9 @@ class _Search:
                    velocity_mps: tuple[float, float]) -> list[dict[str, Any]]:
         """Known camera velocity over the water: a 1-D search over the altitude alone.
 
-        A coarse scan over log altitude picks its most *prominent* peak (not the highest:
-        slow content makes the scan rise toward high altitudes, and a bump on that rise is
-        no wave shell).  The scan weights each mode by how far the candidate makes it turn
+        A coarse scan over log altitude picks its most *prominent* peak in the range (not
+        the highest: slow content makes the scan rise toward high altitudes, and a bump on
+        that rise is no wave shell).  The scan weights each mode by how far the candidate makes it turn
         over the clip (:meth:`_mode_values`): when the camera drifts downwind, the Doppler
         shift cancels the waves' own motion on a band of modes, which then stand nearly
         still in the image and hold only the optics' slow products; unweighted, those
@@ -220,7 +220,11 @@ class _Search:
         vals, wt = self._branch_values(p, fps, focal_px, grid, ux, uy, modes=sub, turns=True)
         scan = vals.mean(axis=1)
         wsum, wtot = np.sum(vals * wt, axis=1), wt.sum(axis=1)
-        i = _most_prominent(wsum / np.maximum(wtot, 1e-9), grid, lo - step, hi + step)[0]
+        # The peak is the most prominent within the range (the scan reaches past it only to
+        # measure the fall beside a peak near an end): with a fast drift, slow content that
+        # rides with the water raises a hump beyond it that hid the shell (4.6 m read 20 m).
+        inr = {"near": 0.5 * (lo + hi), "within": 0.5 * (hi - lo) + step}
+        i = _most_prominent(wsum / np.maximum(wtot, 1e-9), grid, lo - step, hi + step, **inr)[0]
         fits = [self._fine_aided(p, fps, focal_px, grid[i], step, u_of, scan, grid)]
         # The weighted mean of a candidate at which few modes turn rests on few modes: on
         # small frames (128 px, 1-5 m) it made spurious peaks at 5-15 times the altitude, and
@@ -229,7 +233,7 @@ class _Search:
         # refined too, and kept when trusted and more so (:meth:`_aided`).
         n0 = AIDED_SHRINK_FRACTION * wt.shape[1]
         shrunk = (wsum + n0 * float(np.median(scan))) / (wtot + n0)
-        k = _most_prominent(shrunk, grid, lo - step, hi + step)[0]
+        k = _most_prominent(shrunk, grid, lo - step, hi + step, **inr)[0]
         if abs(k - i) > 4:
             fits.append(self._fine_aided(p, fps, focal_px, grid[k], step, u_of, scan, grid))
         return fits

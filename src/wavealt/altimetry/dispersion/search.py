@@ -181,21 +181,20 @@ class _Search:
 
         A coarse scan over log altitude picks its most *prominent* peak in the range (not
         the highest: slow content makes the scan rise toward high altitudes, and a bump on
-        that rise is no wave shell).  The scan weights each mode by how far the candidate makes it turn
-        over the clip (:meth:`_mode_values`): when the camera drifts downwind, the Doppler
-        shift cancels the waves' own motion on a band of modes, which then stand nearly
-        still in the image and hold only the optics' slow products; unweighted, those
+        that rise is no wave shell).  The scan weights each mode by how far the candidate
+        makes it turn over the clip (:meth:`_mode_values`): when the camera drifts downwind,
+        the Doppler shift cancels the waves' own motion on a band of modes, which then stand
+        nearly still in the image and hold only the optics' slow products; unweighted, those
         made the scan rise with no peak near the truth (paper renderer, 10 frames, 100
         scenes: 6 errors of 30-95 % at 7-15 m clean).  The fine stage, on every mode and
         unweighted, takes the highest point within +-4 coarse steps and refines it with a
         parabola; the mode groups' spread there gives the uncertainty (:meth:`_result`).
         Where the unweighted values rise through those steps with no peak (the nearly still
-        modes again), the fine stage is weighted too: paper renderer, 10 frames, 100
-        scenes each of seeds 5 and 11, relative MAE clean 1.72 / 1.53 -> 1.49 / 1.08 %;
-        such estimates are flagged by the quality below.
-        The quality is the prominence of the *unweighted* scan's peak at the estimate (none
-        within two steps: no quality), so an estimate that only the weighting found is not
-        trusted.
+        modes again), the fine stage is weighted too: paper renderer, 10 frames, 100 scenes
+        each of seeds 5 and 11, relative MAE clean 1.72 / 1.53 -> 1.49 / 1.08 %; such
+        estimates are flagged by the quality below.  The quality is the prominence of the
+        *unweighted* scan's peak at the estimate (none within two steps: no quality), so an
+        estimate that only the weighting found is not trusted.
 
         Returns the fit at the weighted scan's peak and, where a shrunk weighted scan (see
         below) peaks elsewhere, the fit there too; :meth:`_aided` grades both.
@@ -361,10 +360,8 @@ class _Search:
         u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
         # every mode along the whole ridge: the mode groups' peaks there give the uncertainty
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
-        # the profile's noise: the sd of its score (the mean over the modes it was taken on)
-        # under random phase steps (:func:`null_score`)
-        q_sub = p["q"][sub]
-        noise = float(np.sqrt(np.sum(q_sub.var(axis=1)))) / max(sub.size, 1)
+        # the profile's noise: the sd of its score under random phase steps
+        noise = null_sd(p, sub)
         return {"logh": logh, "u": u, "scan": scan, "interior": interior,
                 "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge)}
@@ -375,13 +372,10 @@ class _Search:
         by searching their velocity again from each neighbour's.
 
         The profile is the score maximised over the velocity at every altitude; the
-        continuation only finds a local maximum, and where it starts (the phase-step start's
-        velocity, which may lie far off) or where the ridge it follows ends, one point can
-        hold a poor one.  A dip of one point then makes a prominent false peak beside it
-        (realistic preset, 128 px, 5 m: the start's point read 0.006 between neighbours of
-        0.025, on a profile rising to the top of the range, and a peak at 14 m was
-        trusted).  Searched again from a neighbour's velocity, a point's score can only
-        rise: it stays a dip only where the ridge itself falls.
+        continuation finds a local maximum, and where it starts (from the phase-step
+        start's velocity, which may lie far off) one point can hold a poor one, making a
+        prominent false peak beside it (a trusted 14 m for 5 m; ``docs/dispersion.md``).
+        Searched again from a neighbour's velocity, a point's score can only rise.
         """
         for _ in range(len(grid)):
             inner = scan[1:-1]
@@ -433,9 +427,16 @@ def null_score(p: dict[str, Any]) -> tuple[float, float]:
     random phase steps: each mode's share averaged over all phase steps gives its mean and
     variance (cached in ``p``: one periodogram serves several fits)."""
     if "_null" not in p:
-        q = p["q"]
-        p["_null"] = (float(q.mean()), float(np.sqrt(np.sum(q.var(axis=1)))) / q.shape[0])
+        p["_null"] = (float(p["q"].mean()), null_sd(p, np.arange(p["q"].shape[0])))
     return p["_null"]
+
+
+def null_sd(p: dict[str, Any], modes: np.ndarray) -> float:
+    """Standard deviation under random phase steps of the mean share over ``modes``
+    (:func:`null_score`; the modes' variances over the phase steps cached in ``p``)."""
+    if "_mode_var" not in p:
+        p["_mode_var"] = p["q"].var(axis=1)
+    return float(np.sqrt(np.sum(p["_mode_var"][modes]))) / max(len(modes), 1)
 
 
 def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

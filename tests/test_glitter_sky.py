@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from wavealt.sim.light.glitter import (
+    advected_crops,
     cox_munk_glint,
     glint_reflectance,
     whitecap_field,
@@ -194,3 +195,24 @@ def test_non_contiguous_input_gives_the_same_result():
                      np.ascontiguousarray(sy.transpose(0, 2, 1)))
     np.testing.assert_array_equal(d1, d2)
     np.testing.assert_array_equal(n1, n2)
+
+
+def test_foam_carried_by_the_water_moves_smoothly_not_in_whole_pixel_jumps():
+    """The foam map rides with the water: whole-pixel shifts are exact rolls, and a shift of
+    a fraction of a pixel moves every wavenumber's phase by ``k . shift`` (a staircase of
+    rounded shifts would leave the first frames identical)."""
+    field = whitecap_field((64, 64), dx_m=0.02, fraction=0.1, rng=3)
+    shifts = np.array([[0.0, 0.0], [0.0, 0.3], [2.0, -3.0], [0.5, 0.25]])
+    crops = advected_crops(field, shifts, (48, 40), offset=(5, 7))
+    assert crops.shape == (4, 48, 40) and crops.dtype == np.float32
+    np.testing.assert_allclose(crops[0], field[5:53, 7:47], atol=1e-5)
+    np.testing.assert_allclose(crops[2], np.roll(field, (-2, 3), axis=(0, 1))[5:53, 7:47],
+                               atol=1e-5)
+    assert np.abs(crops[1] - crops[0]).max() > 0.05  # a third of a pixel already shows
+    # the sub-pixel shift as a phase ramp: the uncropped map's spectrum, before clipping
+    full = advected_crops(np.clip(field, 0.0, 1.0), shifts[3:], (64, 64))[0]
+    f0, f1 = np.fft.fft2(field), np.fft.fft2(full)
+    ky, kx = 2 * np.pi * np.fft.fftfreq(64)[:, None], 2 * np.pi * np.fft.fftfreq(64)[None, :]
+    low = (np.hypot(kx, ky) < 0.4) & (np.abs(f0) > 0.05 * np.abs(f0).max())
+    phase = np.angle(f1[low] / f0[low])
+    np.testing.assert_allclose(phase, (ky * 0.5 + kx * 0.25)[low], atol=0.05)

@@ -30,6 +30,7 @@ import numpy as np
 from wavealt.sim.base import SequenceData, domain_points
 from wavealt.sim.config import RealisticConfig, Scenario, SimConfig
 from wavealt.sim.light.glitter import (
+    advected_crops,
     glint_reflectance,
     whitecap_field,
     whitecap_fraction,
@@ -151,15 +152,10 @@ def generate_realistic_sequence(scenario: Scenario, config: SimConfig, *,
             field = whitecap_field((n, n), dx_m=sea.dx_m, fraction=frac,
                                    rng=np.random.default_rng([scenario.seed, 3]),
                                    wind_dir_rad=math.radians(scenario.wind_dir_deg))
-            # foam rides with the water: the camera sees it drift by -v t
-            r0, c0 = (n - size) // 2 + shift[0], (n - size) // 2 + shift[1]
-            foam = np.empty((len(times), size, size), dtype=np.float32)
-            for i, t in enumerate(times):
-                dr = int(round(velocity[1] * t / sea.dx_m))
-                dc = int(round(velocity[0] * t / sea.dx_m))
-                rows = (np.arange(size) + r0 + dr) % n
-                cols = (np.arange(size) + c0 + dc) % n
-                foam[i] = field[np.ix_(rows, cols)]
+            # foam rides with the water: the camera sees it drift by -v t, smoothly
+            shifts = np.outer(times, [velocity[1], velocity[0]]) / sea.dx_m
+            foam = advected_crops(field, shifts, (size, size),
+                                  ((n - size) // 2 + shift[0], (n - size) // 2 + shift[1]))
     sun = sun_vector(math.radians(scenario.sun_zenith_deg), math.radians(scenario.sun_azimuth_deg))
     clean_rad, glinty_rad = render_radiance(
         sx, sy, view, sun, subpixel_slope_variance=sea.subpixel_slope_variance,

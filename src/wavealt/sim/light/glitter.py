@@ -158,7 +158,31 @@ def whitecap_field(shape: tuple[int, int], *, dx_m: float, fraction: float, rng,
     return cover(0.5 * (lo + hi), field).astype(np.float32)
 
 
+def advected_crops(field: np.ndarray, shifts_px: np.ndarray, crop: tuple[int, int],
+                   offset: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """Crops of the periodic map ``field`` ``(n, m)`` carried by the water: frame ``i`` shows
+    ``field`` moved by ``-shifts_px[i] = -(rows, cols)`` pixels, to a fraction of a pixel
+    (a phase ramp on its spectrum), cropped to ``crop`` from ``offset``, clipped to
+    ``[0, 1]`` (the ringing of the map's sharp edges); ``(len(shifts_px), *crop)`` float32.
+
+    Rounded to whole pixels, a slowly drifting patch would stand still and then jump: a
+    staircase motion whose spectrum spreads over harmonics of the jump rate, which no
+    surface on the sea has.
+    """
+    n, m = field.shape
+    spec = np.fft.rfft2(field)
+    fy = np.fft.fftfreq(n)[:, None]
+    fx = np.fft.rfftfreq(m)[None, :]
+    rows = (np.arange(crop[0]) + offset[0]) % n
+    cols = (np.arange(crop[1]) + offset[1]) % m
+    out = np.empty((len(shifts_px), *crop), dtype=np.float32)
+    for i, (dr, dc) in enumerate(np.asarray(shifts_px, dtype=np.float64)):
+        moved = np.fft.irfft2(spec * np.exp(2j * np.pi * (fy * dr + fx * dc)), s=(n, m))
+        out[i] = np.clip(moved[np.ix_(rows, cols)], 0.0, 1.0)
+    return out
+
+
 __all__ = [
-    "MIN_SLOPE_VARIANCE", "SUN_RADIUS_RAD", "cox_munk_glint", "cox_munk_iso_pdf",
-    "glint_reflectance", "whitecap_field", "whitecap_fraction",
+    "MIN_SLOPE_VARIANCE", "SUN_RADIUS_RAD", "advected_crops", "cox_munk_glint",
+    "cox_munk_iso_pdf", "glint_reflectance", "whitecap_field", "whitecap_fraction",
 ]

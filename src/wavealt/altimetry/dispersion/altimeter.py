@@ -19,6 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     TILES,
     TRUSTED_QUALITY,
 )
+from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
 from wavealt.altimetry.dispersion.signal import _has_texture, _Signal
@@ -46,7 +47,7 @@ def _one_blas_thread() -> Any:
 _BLAS_CONTROLLER: Any = None
 
 
-class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Trust):
+class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
     """Altitude, its uncertainty and the water's velocity from frames, by wave dispersion.
 
     Parameters

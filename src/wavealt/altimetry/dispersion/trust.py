@@ -163,7 +163,7 @@ class _Trust:
             return res.reason or "no wave signal above the noise"
         if res.quality < TRUSTED_QUALITY:
             return res.reason or "no prominent wave-shell peak"
-        if rel3 > 1.0 - 1.0 / (1.0 + MAX_TRUSTED_3SIGMA):
+        if rel3 > math.log1p(MAX_TRUSTED_3SIGMA):
             return f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
         if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
             return "at the edge of the altitude range searched"
@@ -177,8 +177,9 @@ class _Trust:
     def _judge(self, res: DispersionResult) -> DispersionResult:
         """The trust decision of a finished fit, in place: a shell peak significant against
         random phase steps (``MIN_SIGNIFICANCE``) and prominent (``TRUSTED_QUALITY``), a
-        3-sigma interval that holds no altitude ``MAX_TRUSTED_3SIGMA`` away from the
-        estimate (relative to that altitude: ``3 sd <= (1 - 1 / 1.1)`` of it), and an estimate
+        3-sigma interval in log altitude that holds no altitude the estimate exceeds (or
+        falls short of) by more than ``MAX_TRUSTED_3SIGMA`` of it (``3 sd_log <= log 1.1``),
+        and an estimate
         inside the altitude range (not within ``EDGE_FACTOR`` of an end of it)."""
         lo, hi = self.altitude_range_m
         reason = self._distrust(res)

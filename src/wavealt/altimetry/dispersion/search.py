@@ -71,11 +71,17 @@ class _Search:
             # omega = sqrt(g kappa f / h): one outer product instead of a matrix of sqrt
             scale = np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)
             om = scale.astype(np.float32)[:, None] * a["sqrt_kappa"][None, :]
+        elif logh.size and bool(np.all(logh == logh[0])):
+            # the velocity searches ask for one altitude many times: its row of omega is
+            # computed once per mode subset (whose lookup arrays ``p`` holds for its life)
+            rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
+            key = (float(logh[0]), float(fps), float(focal_px))
+            if key not in rows:
+                rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
+            om = np.repeat(rows[key], logh.size, axis=0)
         else:
-            # the velocity searches ask for one altitude at a time: one row of omega then
             uniq, inv = np.unique(logh, return_inverse=True)
-            om = (self.omega(a["kappa"][None, :] * focal_px / np.exp(uniq)[:, None])
-                  * (to_bins / fps)).astype(np.float32)
+            om = self._omega_bins(a["kappa"], uniq, fps, focal_px, to_bins)
             if uniq.size < logh.size or not np.array_equal(uniq, logh):
                 om = om[inv.ravel()]
         dop = (np.atleast_1d(ux) * to_bins).astype(np.float32)[:, None] * a["kx"][None, :]
@@ -108,6 +114,13 @@ class _Search:
                 wt = w if wt is None else np.where(val > best, w, wt)
             best = val if best is None else np.maximum(best, val)
         return best, wt
+
+    def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
+                    to_bins: float) -> np.ndarray:
+        """The wave phase step ``omega(kappa f / h) / fps`` of every mode at each altitude
+        ``exp(logh)``, in table bins, ``(altitudes, modes)`` float32."""
+        return (self.omega(kappa[None, :] * focal_px / np.exp(logh)[:, None])
+                * (to_bins / fps)).astype(np.float32)
 
     def _mode_values(self, p: dict[str, Any], fps: float, focal_px: float,
                      logh: np.ndarray, ux: np.ndarray, uy: np.ndarray,

@@ -627,3 +627,41 @@ def test_a_blind_peak_no_higher_than_the_profiles_noise_is_not_trusted() -> None
                                   30.0, focal_px))
     assert weak.quality == 0.0 and not weak.trusted
     assert weak.reason == "no prominent wave-shell peak"
+
+
+def test_the_velocity_map_peaks_at_the_waters_image_velocity() -> None:
+    """The global velocity search's map (one 2-D FFT over the modes' lattice): at the true
+    altitude its best peak, scored on every mode, lies within a few map steps of the water's
+    image velocity, and refined from there reaches it (the camera's, in the periodogram's convention), wherever the camera
+    drifts."""
+    h = 4.0
+    est = DispersionAltimeter(dispersion="gravity")
+    for speed, direction in ((0.0, 0.0), (0.6, 120.0), (1.0, 250.0)):
+        frames, focal_px, camera_v = _linear_frames(h, 7.0, speed, direction, size=128,
+                                                    frames=30)
+        p = est._periodogram(frames)
+        u_true = np.asarray(camera_v) * focal_px / (h * 30.0)  # the periodogram's convention
+        peaks = np.array(est._velocity_map_peaks(p, 30.0, focal_px, np.log(h)))
+        score = est._score(p, 30.0, focal_px, np.full(len(peaks), np.log(h)), peaks[:, 0],
+                           peaks[:, 1])
+        best = peaks[int(np.argmax(score))]
+        assert np.hypot(*(best - u_true)) <= 3.0 * est._map_step(p), (speed, best, u_true)
+        # refined from there, as the profile's seeds are
+        u = est._best_velocity(p, 30.0, focal_px, np.log(h), best, None, est._map_step(p))[1]
+        assert np.hypot(*(u - u_true)) < 0.05, (speed, u, u_true)
+
+
+def test_a_blind_start_pinned_at_the_top_with_a_far_velocity_still_finds_the_shell() -> None:
+    """A phase-step start that ran off the range carries no velocity: the continuation from
+    a velocity 3.6 px/frame off never reaches the shell's ridge, and the global velocity
+    search along the profile does."""
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    u_true = np.asarray(camera_v) * focal_px / (h * 30.0)  # the periodogram's convention
+    far = u_true + np.array([3.0, -2.0])
+    lo, hi = est.altitude_range_m
+    fit = est._fit_blind(p, 30.0, focal_px, np.log(hi), far)
+    assert abs(np.exp(fit["logh"]) - h) / h < 0.06
+    assert np.allclose(fit["u"], u_true, atol=0.05)

@@ -123,6 +123,18 @@ ALIAS_MODE_FRACTION = 0.3
 #: bump of noise can outdo a weak shell in prominence (tuning seed 202, glinty: mean |log
 #: error| 0.082 -> 0.066).
 BLIND_PEAK_CANDIDATES = 4
+#: The blind profile's global velocity search (:meth:`DispersionAltimeter._seed_profile`):
+#: every this many altitudes of the profile (x1.22 apart), a map of the score over the image
+#: velocity on the modes of ``kappa <= BLIND_MAP_KAPPA`` rad/px (whose peaks over the
+#: velocity are broad enough for a coarse map), within ``BLIND_MAX_SPEED_MPS`` of still
+#: (water against camera: the realistic preset flies at up to 3 m/s, currents add up to 1).
+#: A velocity refined from the map's best three replaces the continuation's where it
+#: scores ``BLIND_SEED_MIN_Z`` of the profile's noise more.  Realistic preset, 30 frames,
+#: tuning seeds 101 and 202 (see ``docs/dispersion.md``).
+BLIND_SEED_EVERY = 4
+BLIND_MAP_KAPPA = 0.5
+BLIND_MAX_SPEED_MPS = 5.0
+BLIND_SEED_MIN_Z = 20.0
 #: A velocity prior keeps the blind search's velocity within this many sigmas of its mean
 #: (a disk; :meth:`DispersionAltimeter._fit_blind`): a 2-D normal error of ``sigma`` per
 #: axis lies within it with probability ``1 - exp(-PRIOR_SIGMAS^2 / 2)`` = 0.989.

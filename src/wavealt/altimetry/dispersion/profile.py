@@ -7,12 +7,17 @@ import math
 from typing import Any
 
 import numpy as np
+import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import (
     ALIAS_MODE_FRACTION,
     BLIND_PEAK_CANDIDATES,
     BLIND_PROFILE_ABOVE_LOG,
+    BLIND_MAP_KAPPA,
+    BLIND_MAX_SPEED_MPS,
     BLIND_PROFILE_STEP_LOG,
+    BLIND_SEED_EVERY,
+    BLIND_SEED_MIN_Z,
     MIN_SIGNIFICANCE,
 )
 from wavealt.altimetry.dispersion.search import (
@@ -116,6 +121,9 @@ class _Profile:
             for j in order:  # continuation along the ridge
                 scan[j], u = self._best_velocity(p, fps, focal_px, float(grid[j]), u, sub, 0.02)
                 path[j] = u
+        if not lo + 1e-9 < logh0 < hi - 1e-9:
+            # a start pinned to an end of the range ran off it: its velocity tells nothing
+            self._seed_profile(p, fps, focal_px, grid, scan, path, sub)
         self._fill_dips(p, fps, focal_px, grid, scan, path, sub)
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,
                                                           prior)
@@ -135,6 +143,110 @@ class _Profile:
         return {"logh": logh, "u": u, "scan": scan, "interior": interior,
                 "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge)}
+
+    def _seed_profile(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
+                      scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:
+        """Raise, in place, the blind profile where a global search of the velocity finds a
+        far better one than the continuation, and carry the better velocity along the ridge.
+
+        The continuation follows one local maximum of the score over the velocity from the
+        phase-step start; where the start is far off (a clip whose cross-spectra a
+        non-dispersive pattern dominates, foam riding with the water: the start sits at the
+        top of the range), it never reaches the shell's ridge.  Every
+        ``BLIND_SEED_EVERY``-th altitude of the profile, the best of the few best velocities
+        of a coarse map (:meth:`_velocity_map_peaks`), scored on the profile's modes, is refined;
+        where its score beats the profile by
+        ``BLIND_SEED_MIN_Z`` of the profile's noise it replaces it (the best of many
+        velocities on noise beats the continuation by a few sigma, most at low altitudes,
+        where the velocity range searched is widest) and is carried outward along the
+        profile while it raises it.
+        """
+        noise = null_sd(p, modes)
+        raised = []
+        for j in range(0, grid.size, BLIND_SEED_EVERY):
+            peaks = self._velocity_map_peaks(p, fps, focal_px, float(grid[j]))
+            if not peaks:
+                continue
+            # the map's peaks scored on the profile's modes; the best refined
+            cand = np.array(peaks)
+            lg = np.full(len(peaks), grid[j])
+            k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)))
+            val, u = self._best_velocity(p, fps, focal_px, float(grid[j]), cand[k], modes,
+                                         self._map_step(p))
+            if val > scan[j] + BLIND_SEED_MIN_Z * noise:
+                scan[j], path[j] = val, u
+                raised += [(j, -1), (j, 1)]
+        while raised:  # carried outward along the ridge while it raises the profile
+            j, way = raised.pop()
+            nb = j + way
+            if 0 <= nb < grid.size:
+                # the same velocity in m/s: px/frame scales as 1 / altitude
+                u0 = path[j] * math.exp(grid[j] - grid[nb])
+                val, u = self._best_velocity(p, fps, focal_px, float(grid[nb]), u0, modes, 0.02)
+                if val > scan[nb] * (1.0 + 1e-6):
+                    scan[nb], path[nb] = val, u
+                    raised.append((nb, way))
+
+    @staticmethod
+    def _map_modes(p: dict[str, Any]) -> np.ndarray:
+        """The low modes of the velocity map: ``kappa <= BLIND_MAP_KAPPA``, at least 24."""
+        low = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
+        if low.size < 24:
+            low = np.argsort(p["kappa"], kind="stable")[:24]
+        return low
+
+    def _map_step(self, p: dict[str, Any]) -> float:
+        """The velocity map's step, px/frame: half the width of a map mode's peak over the
+        velocity, ``(2 pi / T) / kappa_max``."""
+        return 0.5 * (2.0 * np.pi / p["frames"]) / float(p["kappa"][self._map_modes(p)].max())
+
+    def _velocity_map_peaks(self, p: dict[str, Any], fps: float, focal_px: float,
+                            logh: float, n_keep: int = 3) -> list[np.ndarray]:
+        """The ``n_keep`` best local maxima (px/frame) of the score of the low modes over the
+        image velocity at altitude ``exp(logh)``, within ``BLIND_MAX_SPEED_MPS`` (and
+        ``max_shift_px``) of still.
+
+        Each mode's share over the phase step is a Fourier series, and the phase step is
+        linear in the velocity, ``s omega / fps - kappa . u``; the modes lie on the tile's
+        wavenumber lattice ``kappa = 2 pi (a / w, b / h)``, so the sum over the modes, both
+        directions ``s`` added, is one 2-D FFT over a velocity lattice of period ``(w, h)``
+        px/frame (exact at its points, which are :meth:`_map_step` apart).
+        """
+        th, tw = p["tile"]
+        step = self._map_step(p)
+        mx, my = max(8, round(tw / step)), max(8, round(th / step))
+        if "_map" not in p:  # what does not depend on the altitude, once per periodogram
+            modes = self._map_modes(p)
+            n_psi = p["q"].shape[1]
+            k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
+            a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
+            b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
+            p["_map"] = {
+                # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
+                "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1), "k": k,
+                "kappa": p["kappa"][modes],
+                "idx": (((k[None, :] * b[:, None]) % my) * mx
+                        + (k[None, :] * a[:, None]) % mx).ravel()}
+        m = p["_map"]
+        om = self.omega(m["kappa"] * focal_px / math.exp(logh)) / fps  # rad/frame
+        # both directions: e^{+i k om} + e^{-i k om}
+        coef = m["coef"] * (2.0 * np.cos(np.outer(om, m["k"])))
+        idx = m["idx"]
+        c = np.empty(mx * my, dtype=np.complex64)
+        c.real = np.bincount(idx, coef.real.ravel(), mx * my)
+        c.imag = np.bincount(idx, coef.imag.ravel(), mx * my)
+        # score(u = (l_x w / mx, l_y h / my)) = sum_K c[K] e^{-2 pi i K . l / M}
+        score = scipy.fft.fft2(c.reshape(my, mx), workers=1).real
+        uy = np.fft.fftfreq(my, 1.0 / th)[:, None]
+        ux = np.fft.fftfreq(mx, 1.0 / tw)[None, :]
+        umax = min(self.max_shift_px, BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps))
+        score[np.hypot(ux, uy) > umax] = -np.inf
+        pad = np.pad(score, 1, mode="wrap")
+        nb = np.max([pad[1 + dy:1 + dy + my, 1 + dx:1 + dx + mx]
+                     for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], axis=0)
+        peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
+        peaks = peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]
+        return [np.array([ux[0, i % mx], uy[i // mx, 0]]) for i in peaks]
 
     def _fill_dips(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
                    scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:

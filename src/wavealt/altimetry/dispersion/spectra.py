@@ -166,7 +166,8 @@ class _Spectra:
         corners = corners and _fast_len(int(self.corner_tiles * min(h, w))) >= 32
         parts = _corners(signal, self.corner_tiles) if corners else [signal]
         q, kx, ky, kappa = self._share_table(parts, basis, denom, self.max_modes)
-        return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners}
+        return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
+                "tile": parts[0].shape[1:]}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int) -> tuple[np.ndarray, ...]:

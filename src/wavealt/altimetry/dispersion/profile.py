@@ -236,17 +236,22 @@ class _Profile:
         c.real = np.bincount(idx, coef.real.ravel(), mx * my)
         c.imag = np.bincount(idx, coef.imag.ravel(), mx * my)
         # score(u = (l_x w / mx, l_y h / my)) = sum_K c[K] e^{-2 pi i K . l / M}
-        score = scipy.fft.fft2(c.reshape(my, mx), workers=1).real
-        uy = np.fft.fftfreq(my, 1.0 / th)[:, None]
-        ux = np.fft.fftfreq(mx, 1.0 / tw)[None, :]
+        score = np.fft.fftshift(scipy.fft.fft2(c.reshape(my, mx), workers=1).real)
+        uy = np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th))
+        ux = np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))
+        # the local maxima within the speed searched (the map spans a whole period)
         umax = min(self.max_shift_px, BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps))
+        rows, cols = np.flatnonzero(np.abs(uy) <= umax), np.flatnonzero(np.abs(ux) <= umax)
+        score = score[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+        uy, ux = uy[rows[0]:rows[-1] + 1, None], ux[None, cols[0]:cols[-1] + 1]
         score[np.hypot(ux, uy) > umax] = -np.inf
-        pad = np.pad(score, 1, mode="wrap")
-        nb = np.max([pad[1 + dy:1 + dy + my, 1 + dx:1 + dx + mx]
+        ny, nx = score.shape
+        pad = np.pad(score, 1, constant_values=-np.inf)
+        nb = np.max([pad[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx]
                      for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], axis=0)
         peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
         peaks = peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]
-        return [np.array([ux[0, i % mx], uy[i // mx, 0]]) for i in peaks]
+        return [np.array([ux[0, i % nx], uy[i // nx, 0]]) for i in peaks]
 
     def _fill_dips(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
                    scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:

@@ -632,8 +632,8 @@ def test_a_blind_peak_no_higher_than_the_profiles_noise_is_not_trusted() -> None
 def test_the_velocity_map_peaks_at_the_waters_image_velocity() -> None:
     """The global velocity search's map (one 2-D FFT over the modes' lattice): at the true
     altitude its best peak, scored on every mode, lies within a few map steps of the water's
-    image velocity, and refined from there reaches it (the camera's, in the periodogram's convention), wherever the camera
-    drifts."""
+    image velocity (the camera's, in the periodogram's convention), and refined from there
+    reaches it, wherever the camera drifts."""
     h = 4.0
     est = DispersionAltimeter(dispersion="gravity")
     for speed, direction in ((0.0, 0.0), (0.6, 120.0), (1.0, 250.0)):

@@ -90,7 +90,9 @@ class _Profile:
         (its bias is mostly upward) and down to the lowest altitude the frame rate can test
         (:meth:`_alias_floor_log`): a start may be many times too high, up to the top of
         the range where short, nearly non-dispersive waves pass for a frozen pattern in
-        translation.  Of its most prominent peaks, the most prominent one that is
+        translation.  Where the start is pinned to an end of the range, its velocity tells
+        nothing and the profile is also searched from a global map of the velocity
+        (:meth:`_seed_profile`).  Of its most prominent peaks, the most prominent one that is
         significant on every mode is refined on all modes like the aided fit.
 
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
@@ -147,19 +149,18 @@ class _Profile:
     def _seed_profile(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
                       scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:
         """Raise, in place, the blind profile where a global search of the velocity finds a
-        far better one than the continuation, and carry the better velocity along the ridge.
+        far better one than the continuation, and carry the better velocity along the ridge
+        (:meth:`_fit_blind` calls it where the phase-step start is pinned to an end of the
+        range: a start that ran off the range carries no velocity).
 
-        The continuation follows one local maximum of the score over the velocity from the
-        phase-step start; where the start is far off (a clip whose cross-spectra a
-        non-dispersive pattern dominates, foam riding with the water: the start sits at the
-        top of the range), it never reaches the shell's ridge.  Every
+        The continuation follows the local maximum of the score over the velocity nearest
+        the start, and from a velocity far off it never reaches the shell's ridge.  Every
         ``BLIND_SEED_EVERY``-th altitude of the profile, the best of the few best velocities
-        of a coarse map (:meth:`_velocity_map_peaks`), scored on the profile's modes, is refined;
-        where its score beats the profile by
-        ``BLIND_SEED_MIN_Z`` of the profile's noise it replaces it (the best of many
-        velocities on noise beats the continuation by a few sigma, most at low altitudes,
-        where the velocity range searched is widest) and is carried outward along the
-        profile while it raises it.
+        of a coarse map (:meth:`_velocity_map_peaks`), scored on the profile's modes, is
+        refined; where its score beats the profile by ``BLIND_SEED_MIN_Z`` of the profile's
+        noise it replaces it (the best of many velocities on noise beats the continuation
+        by a few sigma, most at low altitudes, where the velocity range searched is widest)
+        and is carried outward along the profile while it raises it.
         """
         noise = null_sd(p, modes)
         raised = []

@@ -11,10 +11,10 @@ import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import (
     ALIAS_MODE_FRACTION,
-    BLIND_PEAK_CANDIDATES,
-    BLIND_PROFILE_ABOVE_LOG,
     BLIND_MAP_KAPPA,
     BLIND_MAX_SPEED_MPS,
+    BLIND_PEAK_CANDIDATES,
+    BLIND_PROFILE_ABOVE_LOG,
     BLIND_PROFILE_STEP_LOG,
     BLIND_SEED_EVERY,
     BLIND_SEED_MIN_Z,
@@ -180,26 +180,52 @@ class _Profile:
         while raised:  # carried outward along the ridge while it raises the profile
             j, way = raised.pop()
             nb = j + way
-            if 0 <= nb < grid.size:
-                # the same velocity in m/s: px/frame scales as 1 / altitude
-                u0 = path[j] * math.exp(grid[j] - grid[nb])
-                val, u = self._best_velocity(p, fps, focal_px, float(grid[nb]), u0, modes, 0.02)
-                if val > scan[nb] * (1.0 + 1e-6):
-                    scan[nb], path[nb] = val, u
-                    raised.append((nb, way))
+            # the same velocity in m/s: px/frame scales as 1 / altitude
+            if 0 <= nb < grid.size and self._search_again(
+                    p, fps, focal_px, grid, scan, path, modes, nb,
+                    path[j] * math.exp(grid[j] - grid[nb])):
+                raised.append((nb, way))
+
+    def _search_again(self, p: dict[str, Any], fps: float, focal_px: float,
+                      grid: np.ndarray, scan: np.ndarray, path: np.ndarray,
+                      modes: np.ndarray | None, j: int, u0: np.ndarray) -> bool:
+        """Search the velocity of profile point ``j`` again from ``u0`` and keep it, in
+        place, where it scores more than the point holds; whether it did."""
+        val, u = self._best_velocity(p, fps, focal_px, float(grid[j]), u0, modes, 0.02)
+        if val > scan[j] * (1.0 + 1e-6):
+            scan[j], path[j] = val, u
+            return True
+        return False
 
     @staticmethod
-    def _map_modes(p: dict[str, Any]) -> np.ndarray:
-        """The low modes of the velocity map: ``kappa <= BLIND_MAP_KAPPA``, at least 24."""
-        low = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
-        if low.size < 24:
-            low = np.argsort(p["kappa"], kind="stable")[:24]
-        return low
+    def _map_tables(p: dict[str, Any]) -> dict[str, Any]:
+        """What the velocity map (:meth:`_velocity_map_peaks`) needs that does not depend on
+        the altitude, built once per periodogram (cached in ``p``): its modes (``kappa <=
+        BLIND_MAP_KAPPA``, at least 24), their share tables' Fourier coefficients, the
+        lattice's size and step and each coefficient's place on it.  The step, px/frame, is
+        half the width of a map mode's peak over the velocity, ``(2 pi / T) / kappa_max``."""
+        if "_map" not in p:
+            modes = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
+            if modes.size < 24:
+                modes = np.argsort(p["kappa"], kind="stable")[:24]
+            th, tw = p["tile"]
+            step = 0.5 * (2.0 * np.pi / p["frames"]) / float(p["kappa"][modes].max())
+            mx, my = max(8, round(tw / step)), max(8, round(th / step))
+            n_psi = p["q"].shape[1]
+            k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
+            a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
+            b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
+            p["_map"] = {
+                "step": step, "mx": mx, "my": my, "k": k, "kappa": p["kappa"][modes],
+                # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
+                "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1),
+                "idx": (((k[None, :] * b[:, None]) % my) * mx
+                        + (k[None, :] * a[:, None]) % mx).ravel()}
+        return p["_map"]
 
     def _map_step(self, p: dict[str, Any]) -> float:
-        """The velocity map's step, px/frame: half the width of a map mode's peak over the
-        velocity, ``(2 pi / T) / kappa_max``."""
-        return 0.5 * (2.0 * np.pi / p["frames"]) / float(p["kappa"][self._map_modes(p)].max())
+        """The velocity map's step, px/frame (:meth:`_map_tables`)."""
+        return self._map_tables(p)["step"]
 
     def _velocity_map_peaks(self, p: dict[str, Any], fps: float, focal_px: float,
                             logh: float, n_keep: int = 3) -> list[np.ndarray]:
@@ -214,21 +240,8 @@ class _Profile:
         px/frame (exact at its points, which are :meth:`_map_step` apart).
         """
         th, tw = p["tile"]
-        step = self._map_step(p)
-        mx, my = max(8, round(tw / step)), max(8, round(th / step))
-        if "_map" not in p:  # what does not depend on the altitude, once per periodogram
-            modes = self._map_modes(p)
-            n_psi = p["q"].shape[1]
-            k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
-            a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
-            b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
-            p["_map"] = {
-                # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
-                "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1), "k": k,
-                "kappa": p["kappa"][modes],
-                "idx": (((k[None, :] * b[:, None]) % my) * mx
-                        + (k[None, :] * a[:, None]) % mx).ravel()}
-        m = p["_map"]
+        m = self._map_tables(p)
+        mx, my = m["mx"], m["my"]
         om = self.omega(m["kappa"] * focal_px / math.exp(logh)) / fps  # rad/frame
         # both directions: e^{+i k om} + e^{-i k om}
         coef = m["coef"] * (2.0 * np.cos(np.outer(om, m["k"])))
@@ -271,10 +284,8 @@ class _Profile:
             raised = False
             for j in dips:
                 for nb in (j - 1, j + 1):
-                    val, u = self._best_velocity(p, fps, focal_px, float(grid[j]),
-                                                 path[nb].copy(), modes, 0.02)
-                    if val > scan[j] * (1.0 + 1e-6):
-                        scan[j], path[j] = val, u
+                    if self._search_again(p, fps, focal_px, grid, scan, path, modes, j,
+                                          path[nb].copy()):
                         raised = True
             if not raised:
                 return

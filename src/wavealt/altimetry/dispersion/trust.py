@@ -179,8 +179,8 @@ class _Trust:
         random phase steps (``MIN_SIGNIFICANCE``) and prominent (``TRUSTED_QUALITY``), a
         3-sigma interval in log altitude that holds no altitude the estimate exceeds (or
         falls short of) by more than ``MAX_TRUSTED_3SIGMA`` of it (``3 sd_log <= log 1.1``),
-        and an estimate
-        inside the altitude range (not within ``EDGE_FACTOR`` of an end of it)."""
+        and an estimate inside the altitude range (not within ``EDGE_FACTOR`` of an end of
+        it)."""
         lo, hi = self.altitude_range_m
         reason = self._distrust(res)
         res.trusted = reason is None

@@ -665,3 +665,58 @@ def test_a_blind_start_pinned_at_the_top_with_a_far_velocity_still_finds_the_she
     fit = est._fit_blind(p, 30.0, focal_px, np.log(hi), far)
     assert abs(np.exp(fit["logh"]) - h) / h < 0.06
     assert np.allclose(fit["u"], u_true, atol=0.05)
+
+
+def _explained_shares_arrays(om, vx, vy, kx, ky, pair, frames, turns):
+    """The array form of the compiled kernel (numpy, the previous implementation)."""
+    n_modes, n_psi = pair.shape
+    om = np.broadcast_to(om, (vx.size, n_modes)).copy()
+    dop = vx[:, None] * kx[None, :]
+    dop += vy[:, None] * ky[None, :]
+    base = np.arange(n_modes)[None, :] * n_psi
+    best = wt = None
+    for pos in (om - dop, np.negative(np.add(om, dop, out=om), out=om)):
+        jf = np.floor(pos)
+        frac = pos - jf
+        j = jf.astype(np.int64) % n_psi
+        w = j.astype(np.float32)
+        w += frac
+        np.minimum(w, n_psi - w, out=w)
+        w *= np.float32(frames / n_psi)
+        w -= np.float32(0.5)
+        np.clip(w, 0.0, 1.0, out=w)
+        g = pair.ravel()[j + base]
+        val = g.imag * frac
+        val += g.real
+        wt = w if wt is None else np.where(val > best, w, wt)
+        best = val if best is None else np.maximum(best, val)
+    return best, (wt if turns else None)
+
+
+@pytest.mark.parametrize("n_psi", [64, 96])
+@pytest.mark.parametrize("one_row", [False, True])
+def test_the_compiled_score_kernel_gives_the_array_forms_bits(n_psi: int, one_row: bool) -> None:
+    """The compiled inner loop of the score equals the numpy array form bit for bit: both
+    directions, steps of either sign and many periods, ties kept on the first direction,
+    the turn weights, a table whose length is not a power of two, one omega row for all."""
+    from wavealt.altimetry.dispersion.kernel import explained_shares
+
+    rng = np.random.default_rng(11)
+    n_cand, n_modes, frames = 9, 300, 30
+    f32 = np.float32
+    om = rng.uniform(-3.0, 3.0, (1 if one_row else n_cand, n_modes)).astype(f32) * n_psi
+    vx, vy = (rng.normal(0.0, 40.0, n_cand).astype(f32) for _ in range(2))
+    kx, ky = (rng.uniform(-1.5, 1.5, n_modes).astype(f32) for _ in range(2))
+    q = rng.uniform(0.0, 1.0, (n_modes, n_psi)).astype(f32)
+    q[:10] = 0.5  # flat rows: both directions tie
+    pair = np.empty(q.shape, dtype=np.complex64)
+    pair.real = q
+    pair.imag = np.roll(q, -1, axis=1) - q
+    for turns in (False, True):
+        best = np.empty((n_cand, n_modes), dtype=f32)
+        wt = np.empty(best.shape if turns else (0, 0), dtype=f32)
+        explained_shares(om, vx, vy, kx, ky, pair, frames, turns, best, wt)
+        want, want_wt = _explained_shares_arrays(om, vx, vy, kx, ky, pair, frames, turns)
+        np.testing.assert_array_equal(best, want)
+        if turns:
+            np.testing.assert_array_equal(wt, want_wt)

@@ -15,6 +15,7 @@ from wavealt.altimetry.dispersion.constants import (
     AIDED_SHRINK_FRACTION,
     TRUSTED_QUALITY,
 )
+from wavealt.altimetry.dispersion.kernel import explained_shares
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
@@ -78,42 +79,20 @@ class _Search:
             key = (float(logh[0]), float(fps), float(focal_px))
             if key not in rows:
                 rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
-            om = np.repeat(rows[key], logh.size, axis=0)
+            om = rows[key]
         else:
             uniq, inv = np.unique(logh, return_inverse=True)
             om = self._omega_bins(a["kappa"], uniq, fps, focal_px, to_bins)
             if uniq.size < logh.size or not np.array_equal(uniq, logh):
                 om = om[inv.ravel()]
-        dop = (np.atleast_1d(ux) * to_bins).astype(np.float32)[:, None] * a["kx"][None, :]
-        dop += (np.atleast_1d(uy) * to_bins).astype(np.float32)[:, None] * a["ky"][None, :]
-        flat = pair.ravel()
-        base = np.arange(n_modes, dtype=np.int64)[None, :] * n_psi
-        best = wt = None
-        # phase steps in table bins, s = +1 and -1 (the second overwrites om, done with)
-        for pos in (om - dop, np.negative(np.add(om, dop, out=om), out=om)):
-            jf = np.floor(pos)
-            frac = pos - jf
-            j = jf.astype(np.int64)
-            if n_psi & (n_psi - 1) == 0:
-                j &= n_psi - 1  # the table's period, also for negative steps
-            else:
-                j %= n_psi
-            if turns:
-                # cycles the predicted phase step turns over the clip, minus half a cycle
-                w = j.astype(np.float32)
-                w += frac
-                np.minimum(w, n_psi - w, out=w)
-                w *= np.float32(p["frames"] / n_psi)
-                w -= np.float32(0.5)
-                np.clip(w, 0.0, 1.0, out=w)
-            j += base
-            g = flat[j]
-            val = g.imag * frac
-            val += g.real
-            if turns:
-                wt = w if wt is None else np.where(val > best, w, wt)
-            best = val if best is None else np.maximum(best, val)
-        return best, wt
+        vx = (np.atleast_1d(ux) * to_bins).astype(np.float32)
+        vy = (np.atleast_1d(uy) * to_bins).astype(np.float32)
+        shape = (logh.size, n_modes)
+        best = np.empty(shape, dtype=np.float32)
+        wt = np.empty(shape if turns else (0, 0), dtype=np.float32)
+        explained_shares(np.ascontiguousarray(om), vx, vy, a["kx"], a["ky"], pair,
+                         int(p["frames"]) if turns else 0, turns, best, wt)
+        return best, (wt if turns else None)
 
     def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
                     to_bins: float) -> np.ndarray:

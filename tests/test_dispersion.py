@@ -331,7 +331,7 @@ def test_frozen_motion_is_flagged_not_reported(method: str) -> None:
     assert res.altitude_std_m > 0.3 * res.altitude_m
 
 
-def test_weighted_scan_values_follow_the_predicted_turn() -> None:
+def test_weighted_scan_values_follow_the_predicted_turn(score_form: str) -> None:
     """Weighted per-mode values: the unweighted share times clip(cycles - 1/2, 0, 1) of the
     chosen direction's predicted phase step over the clip, each candidate's row rescaled so
     that its mean is the weighted mean; a candidate that predicts every mode to stand still
@@ -399,7 +399,7 @@ def test_periodogram_takes_the_corner_tiles() -> None:
             DispersionAltimeter(corner_tiles=bad)
 
 
-def test_gravity_shortcut_matches_the_dispersion_relation() -> None:
+def test_gravity_shortcut_matches_the_dispersion_relation(score_form: str) -> None:
     """The scan's per-mode values equal the explained share of one travelling wave, evaluated
     directly at the phase step eq. (1) predicts (better of the two directions), for the
     gravity path's shortcut sqrt(g f / h) sqrt(kappa) as for the general omega(k)."""
@@ -667,30 +667,18 @@ def test_a_blind_start_pinned_at_the_top_with_a_far_velocity_still_finds_the_she
     assert np.allclose(fit["u"], u_true, atol=0.05)
 
 
-def _explained_shares_arrays(om, vx, vy, kx, ky, pair, frames, turns):
-    """The array form of the compiled kernel (numpy, the previous implementation)."""
-    n_modes, n_psi = pair.shape
-    om = np.broadcast_to(om, (vx.size, n_modes)).copy()
-    dop = vx[:, None] * kx[None, :]
-    dop += vy[:, None] * ky[None, :]
-    base = np.arange(n_modes)[None, :] * n_psi
-    best = wt = None
-    for pos in (om - dop, np.negative(np.add(om, dop, out=om), out=om)):
-        jf = np.floor(pos)
-        frac = pos - jf
-        j = jf.astype(np.int64) % n_psi
-        w = j.astype(np.float32)
-        w += frac
-        np.minimum(w, n_psi - w, out=w)
-        w *= np.float32(frames / n_psi)
-        w -= np.float32(0.5)
-        np.clip(w, 0.0, 1.0, out=w)
-        g = pair.ravel()[j + base]
-        val = g.imag * frac
-        val += g.real
-        wt = w if wt is None else np.where(val > best, w, wt)
-        best = val if best is None else np.maximum(best, val)
-    return best, (wt if turns else None)
+
+@pytest.fixture(params=["arrays", "compiled"])
+def score_form(request, monkeypatch):
+    """Run a test with the score's inner loop in each of its two forms."""
+    from wavealt.altimetry.dispersion import kernel
+
+    if request.param == "compiled":
+        assert kernel.use_compiled()
+        monkeypatch.setattr(kernel, "_compiled", kernel._compiled)
+    else:
+        monkeypatch.setattr(kernel, "_compiled", False)
+    return request.param
 
 
 @pytest.mark.parametrize("n_psi", [64, 96])
@@ -699,8 +687,9 @@ def test_the_compiled_score_kernel_gives_the_array_forms_bits(n_psi: int, one_ro
     """The compiled inner loop of the score equals the numpy array form bit for bit: both
     directions, steps of either sign and many periods, ties kept on the first direction,
     the turn weights, a table whose length is not a power of two, one omega row for all."""
-    from wavealt.altimetry.dispersion.kernel import explained_shares
+    from wavealt.altimetry.dispersion import kernel
 
+    assert kernel.use_compiled()
     rng = np.random.default_rng(11)
     n_cand, n_modes, frames = 9, 300, 30
     f32 = np.float32
@@ -713,10 +702,12 @@ def test_the_compiled_score_kernel_gives_the_array_forms_bits(n_psi: int, one_ro
     pair.real = q
     pair.imag = np.roll(q, -1, axis=1) - q
     for turns in (False, True):
-        best = np.empty((n_cand, n_modes), dtype=f32)
-        wt = np.empty(best.shape if turns else (0, 0), dtype=f32)
-        explained_shares(om, vx, vy, kx, ky, pair, frames, turns, best, wt)
-        want, want_wt = _explained_shares_arrays(om, vx, vy, kx, ky, pair, frames, turns)
-        np.testing.assert_array_equal(best, want)
+        got = [np.full((n_cand, n_modes), np.nan, dtype=f32) for _ in range(4)]
+        for form, (out, wt) in zip((kernel._compiled, kernel._shares_arrays),
+                                   (got[:2], got[2:])):
+            form(om, vx, vy, kx, ky, pair, frames, turns, out, wt)
+        assert np.all(np.isfinite(got[0]))
+        np.testing.assert_array_equal(got[0], got[2])
         if turns:
-            np.testing.assert_array_equal(wt, want_wt)
+            assert np.all((got[1] >= 0) & (got[1] <= 1))
+            np.testing.assert_array_equal(got[1], got[3])

@@ -19,6 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     TILES,
     TRUSTED_QUALITY,
 )
+from wavealt.altimetry.dispersion.kernel import use_compiled
 from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
@@ -298,6 +299,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                     res = alt
                     res.signal = "full"
             return res
+        use_compiled()  # the prior's and the blind searches score many candidates
         if prior is not None:
             spread = self._prior(p, t, fps, focal_px, prior)
             if self._distrust(spread) is None:

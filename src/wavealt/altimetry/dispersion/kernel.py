@@ -30,7 +30,10 @@ def use_compiled() -> bool:
         except ImportError:
             _compiled = False
         else:
-            _compiled = numba.njit(cache=True, nogil=True)(_shares_loop)
+            try:
+                _compiled = numba.njit(cache=True, nogil=True)(_shares_loop)
+            except RuntimeError:  # no writable cache directory: compiled in each process
+                _compiled = numba.njit(nogil=True)(_shares_loop)
     return _compiled is not False
 
 

@@ -1,7 +1,8 @@
 """Out-of-distribution check of the dispersion altimeter on seas from an independent generator.
 
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
-        [--rows blind30,blind15,exact10,prior10] [--workers 1] [--save-clips DIR] [--self-check]
+        [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
+        [--max-current 1.0] [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -66,7 +67,7 @@ SIZE, GRID, FPS, FRAMES = 256, 640, 30.0, 30
 #: row name -> (mode, frames per window); each 30-frame clip is cut into disjoint windows
 ROWS = {"blind30": ("blind", 30), "blind15": ("blind", 15),
         "exact10": ("exact", 10), "prior10": ("prior", 10)}
-PRIOR_SIGMA_MPS = 1.0
+PRIOR_SIGMA_MPS = 1.0  # the prior row's default sigma (--prior-sigma)
 
 Vec = tuple[float, float]
 
@@ -120,8 +121,9 @@ class Scene:
         return (self.drift[0] - self.current[0], self.drift[1] - self.current[1])
 
 
-def draw_scene(seed: int) -> Scene:
-    """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone)."""
+def draw_scene(seed: int, max_current: float = 1.0) -> Scene:
+    """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
+    speed is its draw scaled to ``max_current``)."""
     r = np.random.default_rng(seed)
 
     def vec(top: float) -> Vec:
@@ -134,7 +136,7 @@ def draw_scene(seed: int) -> Scene:
     spread, wind = r.uniform(2, 10), r.uniform(0, 2 * math.pi)
     share, kp_ratio = r.uniform(0.1, 0.5), r.uniform(2, 6)
     counter = wind + math.pi + r.normal(0, math.radians(30))
-    drift, current = vec(1.0), vec(1.0)
+    drift, current = vec(1.0), vec(max_current)
     sky_c, sky_grad, water = r.uniform(0.5, 2.0), vec(0.3), r.uniform(0.02, 0.3)
     glinty = bool(r.random() < 1 / 3)
     sun_z, sun_az = r.uniform(15, 50), r.uniform(0, 2 * math.pi)
@@ -278,9 +280,10 @@ def _altimeter() -> Any:
     return DispersionAltimeter(dispersion="gravity-capillary")
 
 
-def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None) -> list[dict]:
+def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
+                  prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0) -> list[dict]:
     """One record per window of every row of clip ``seed``."""
-    sc = draw_scene(seed)
+    sc = draw_scene(seed, max_current)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
     if save_dir:
@@ -290,7 +293,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None) -> lis
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn")}
     base["saturated_share"] = float(np.mean(frames == 255))
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
-                "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": PRIOR_SIGMA_MPS}}
+                "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
     records = []
     for row in rows:
         mode, n = ROWS[row]
@@ -433,6 +436,10 @@ def main() -> int:
     ap.add_argument("--out", type=Path, help="JSON with the summary and every window's record")
     ap.add_argument("--rows", default=",".join(ROWS), help=f"comma list of {', '.join(ROWS)}")
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--prior-sigma", type=float, default=PRIOR_SIGMA_MPS,
+                    help="the prior row's velocity sigma, m/s")
+    ap.add_argument("--max-current", type=float, default=1.0,
+                    help="the water current's top speed, m/s (the prior's error)")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -444,7 +451,8 @@ def main() -> int:
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
-    job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips)
+    job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
+                  max_current=a.max_current)
     t0, records = time.perf_counter(), list[dict]()
     with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
@@ -454,6 +462,7 @@ def main() -> int:
     glinty = {r["seed"] for r in records if r["glinty"]}
     summary = {"benchmark": "bench_foreign_sea", "clips": a.clips, "seed": a.seed,
                "rows": list(rows), "glinty_clips": len(glinty),
+               "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

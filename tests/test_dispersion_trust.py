@@ -128,11 +128,12 @@ def test_a_prior_that_excludes_the_truth_is_not_confidently_wrong(offset_mps) ->
 
 
 @pytest.mark.parametrize(("h", "seed", "frames"), [(3.0, 11, 10), (5.0, 3, 30)])
-def test_a_prior_widens_the_exact_fit_and_never_trusts_a_velocity_outside_it(h, seed,
-                                                                             frames) -> None:
+def test_a_prior_widens_the_exact_fit_and_never_returns_a_velocity_outside_it(h, seed,
+                                                                              frames) -> None:
     """Same clip: where a prior's result is the exact fit at its mean, its uncertainty is no
-    smaller than the exact fit's; where it is the blind search's, a velocity beyond 3 sigma
-    of the prior's mean is not trusted, and says why."""
+    smaller than the exact fit's; a result never carries a velocity beyond 3 sigma of the
+    prior's mean (where the blind search finds one, neither fit trusted, the exact fit at
+    the mean, which the prior supports, is returned)."""
     data, sc, cfg = _realistic(h, 0.5, seed, frames=frames)
     est = DispersionAltimeter()
     kw = {"fps": cfg.fps, "focal_px": cfg.focal_px}
@@ -145,8 +146,7 @@ def test_a_prior_widens_the_exact_fit_and_never_trusts_a_velocity_outside_it(h, 
             if offset == (0.0, 0.0) and np.isclose(prior.altitude_m, exact.altitude_m):
                 assert prior.altitude_std_m >= exact.altitude_std_m
             off = np.hypot(*np.subtract(prior.camera_velocity_mps, mean))
-            if off > 3.0 * sigma:
-                assert not prior.trusted and prior.reason
+            assert off <= 3.0 * sigma * (1 + 1e-9)
     # a prior 2 m/s off with sigma 0.05 m/s: the blind search's velocity lies far outside
     far = est.estimate(data.clean, velocity_mps=tuple(np.add(sc.camera_velocity_mps, (2, 0))),
                        velocity_sigma_mps=0.05, **kw)

@@ -35,8 +35,10 @@ With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehi
 navigation, the water's current unknown) exact fits at velocities spread over the prior
 propagate its uncertainty into the altitude's; where the altitude then moves too much with
 the velocity to be trusted, the blind search runs, the prior choosing among its profile's
-peaks the first significant one whose velocity lies within ``3 sigma`` of it, and a fit
-whose velocity lies beyond that is not trusted.
+peaks the first significant one whose velocity lies within ``3 sigma`` of it.  A blind fit
+that is not trusted gives way to the prior's own fit where its velocity lies beyond that
+disk or its uncertainty is the larger, so a result never carries a velocity the prior
+excludes.
 
 Every result carries a trust decision (:meth:`DispersionAltimeter._judge`): the shell's
 peak must stand out of what random phase steps would give (significance), be prominent in

@@ -324,6 +324,14 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         if off > radius:
             res.reason = (f"velocity {off:.2f} m/s from the prior's mean, beyond "
                           f"{PRIOR_SIGMAS:g} sigma")
+        if self._distrust(res) is None:
+            return res
+        # Neither fit is trusted: the one that says more.  A blind fit that leaves the
+        # prior's disk contradicts what the user knows; else the smaller uncertainty (a
+        # narrow prior keeps much of the exact fit's precision, a wide one spreads it).
+        if off > radius or (spread.altitude_std_m / spread.altitude_m
+                            < res.altitude_std_m / res.altitude_m):
+            return spread
         return res
 
 

@@ -90,9 +90,10 @@ class _Profile:
         (its bias is mostly upward) and down to the lowest altitude the frame rate can test
         (:meth:`_alias_floor_log`): a start may be many times too high, up to the top of
         the range where short, nearly non-dispersive waves pass for a frozen pattern in
-        translation.  Where the start is pinned to an end of the range, its velocity tells
-        nothing and the profile is also searched from a global map of the velocity
-        (:meth:`_seed_profile`).  Of its most prominent peaks, the most prominent one that is
+        translation.  A start within a profile step of an end of the range ran off it and
+        tells nothing, of the altitude nor of the velocity: from the bottom, the profile
+        runs to the top of the range, and from either end it is also searched from a
+        global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks, the most prominent one that is
         significant on every mode is refined on all modes like the aided fit.
 
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
@@ -105,7 +106,9 @@ class _Profile:
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = BLIND_PROFILE_STEP_LOG
         low = max(lo, self._alias_floor_log(p, fps, focal_px))
-        top = max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
+        # a start within a profile step of an end of the range ran off it (see above)
+        pinned = not lo + step < logh0 < hi - step
+        top = hi if logh0 <= lo + step else max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
         # the grid passes through the start, which is where the continuation begins
         # (a hair of tolerance keeps ends that are whole steps away on the grid)
         if logh0 > low:
@@ -123,8 +126,7 @@ class _Profile:
             for j in order:  # continuation along the ridge
                 scan[j], u = self._best_velocity(p, fps, focal_px, float(grid[j]), u, sub, 0.02)
                 path[j] = u
-        if not lo + 1e-9 < logh0 < hi - 1e-9:
-            # a start pinned to an end of the range ran off it: its velocity tells nothing
+        if pinned:
             self._seed_profile(p, fps, focal_px, grid, scan, path, sub)
         self._fill_dips(p, fps, focal_px, grid, scan, path, sub)
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,

@@ -90,15 +90,15 @@ def _shares_arrays(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarra
 
 
 def _shares_loop(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
-                     ky: np.ndarray, pair: np.ndarray, frames: int, turns: bool,
-                     out: np.ndarray, wt: np.ndarray) -> None:
+                 ky: np.ndarray, pair: np.ndarray, frames: int, turns: bool,
+                 out: np.ndarray, wt: np.ndarray) -> None:
     """``out[c, m]``, in place: the table value of mode ``m`` at candidate ``c``'s phase step
     (the loop that :func:`use_compiled` compiles).
 
     ``om[c, m]``: the wave's phase step in table bins (one row: the same for every
-    candidate); ``vx, vy``: the candidate's image
-    velocity in bins per unit wavenumber; ``pair[m, j]``: the table ``q[m, j]`` (real part)
-    and the step to ``q[m, j + 1]`` (imaginary part).  The two directions predict the steps
+    candidate); ``vx, vy``: the candidate's image velocity in bins per unit wavenumber;
+    ``pair[m, j]``: the table ``q[m, j]`` (real part) and the step to ``q[m, j + 1]``
+    (imaginary part).  The two directions predict the steps
     ``om - k.v`` and ``-(om + k.v)``; the larger value is kept (the first on a tie).  With
     ``turns``, ``wt[c, m]`` gets the kept branch's turn weight: the cycles its phase step
     turns over ``frames`` frames, minus half a cycle, clipped to [0, 1].

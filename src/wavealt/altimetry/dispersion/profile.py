@@ -93,8 +93,9 @@ class _Profile:
         translation.  A start within a profile step of an end of the range ran off it and
         tells nothing, of the altitude nor of the velocity: from the bottom, the profile
         runs to the top of the range, and from either end it is also searched from a
-        global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks, the most prominent one that is
-        significant on every mode is refined on all modes like the aided fit.
+        global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks,
+        the most prominent one that is significant on every mode is refined on all modes
+        like the aided fit.
 
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
         ``radius`` of ``(vx, vy)``.  The profile is the blind one; the prior chooses among its

@@ -90,10 +90,11 @@ class _Profile:
         (its bias is mostly upward) and down to the lowest altitude the frame rate can test
         (:meth:`_alias_floor_log`): a start may be many times too high, up to the top of
         the range where short, nearly non-dispersive waves pass for a frozen pattern in
-        translation.  A start within a profile step of an end of the range ran off it and
-        tells nothing, of the altitude nor of the velocity: from the bottom, the profile
-        runs to the top of the range, and from either end it is also searched from a
-        global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks,
+        translation.  A start within a profile step of the top of the range, or less than
+        x1.5 above its bottom (a failed Gauss-Newton start ends near a bound), ran off the
+        range and tells nothing, of the altitude nor of the velocity: from the bottom, the
+        profile runs to the top of the range, and from either end it is also searched from
+        a global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks,
         the most prominent one that is significant on every mode is refined on all modes
         like the aided fit.
 
@@ -107,9 +108,10 @@ class _Profile:
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = BLIND_PROFILE_STEP_LOG
         low = max(lo, self._alias_floor_log(p, fps, focal_px))
-        # a start within a profile step of an end of the range ran off it (see above)
-        pinned = not lo + step < logh0 < hi - step
-        top = hi if logh0 <= lo + step else max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
+        # a start that ran off the range (see above)
+        bottom = logh0 <= lo + BLIND_PROFILE_ABOVE_LOG
+        pinned = bottom or logh0 >= hi - step
+        top = hi if bottom else max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
         # the grid passes through the start, which is where the continuation begins
         # (a hair of tolerance keeps ends that are whole steps away on the grid)
         if logh0 > low:

@@ -307,13 +307,13 @@ class _Profile:
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = grid[1] - grid[0]
         peaks, prom = peak_prominences(scan)
-        null_mean, null_sd = null_score(p)
+        null_mean, null_spread = null_score(p)
         significant = []
         for k in np.argsort(-prom, kind="stable")[:BLIND_PEAK_CANDIDATES]:
             j = int(peaks[k])
             score = float(self._score(p, fps, focal_px, grid[j:j + 1], path[j:j + 1, 0],
                                       path[j:j + 1, 1])[0])
-            if (score - null_mean) / max(null_sd, 1e-30) >= MIN_SIGNIFICANCE:
+            if (score - null_mean) / max(null_spread, 1e-30) >= MIN_SIGNIFICANCE:
                 significant.append((j, float(prom[k]), bool(lo - step <= grid[j] <= hi + step)))
         if prior is not None:
             for peak in significant:

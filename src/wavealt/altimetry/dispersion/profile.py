@@ -16,8 +16,10 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_PEAK_CANDIDATES,
     BLIND_PROFILE_ABOVE_LOG,
     BLIND_PROFILE_STEP_LOG,
+    BLIND_REFINE_MIN_KAPPA,
     BLIND_SEED_EVERY,
     BLIND_SEED_MIN_Z,
+    MIN_REFINE_MODES,
     MIN_SIGNIFICANCE,
 )
 from wavealt.altimetry.dispersion.search import (
@@ -95,8 +97,9 @@ class _Profile:
         range and tells nothing, of the altitude nor of the velocity: from the bottom, the
         profile runs to the top of the range, and from either end it is also searched from
         a global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks,
-        the most prominent one that is significant on every mode is refined on all modes
-        like the aided fit.
+        the most prominent one that is significant on every mode is refined like the aided
+        fit, on the modes above the bottom of the band (``BLIND_REFINE_MIN_KAPPA``): the
+        bottom holds the optics' slow difference products as well as the waves.
 
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
         ``radius`` of ``(vx, vy)``.  The profile is the blind one; the prior chooses among its
@@ -135,12 +138,16 @@ class _Profile:
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,
                                                           prior)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
+        # refined on the shorter modes (BLIND_REFINE_MIN_KAPPA: the optics' slow products
+        # fill the bottom of the band)
+        fine = np.flatnonzero(p["kappa"] >= BLIND_REFINE_MIN_KAPPA)
+        fine = fine if fine.size >= MIN_REFINE_MODES else None
         us = np.empty((local.size, 2))
         for j, lg in enumerate(local):
-            us[j] = self._best_velocity(p, fps, focal_px, float(lg), path[i], None, 0.005)[1]
+            us[j] = self._best_velocity(p, fps, focal_px, float(lg), path[i], fine, 0.005)[1]
         # per-mode values along the ridge: the group spread then includes the drift's trade
         vals = self._mode_values(p, fps, focal_px, local, us[:, 0], us[:, 1])
-        mean = vals.mean(axis=1)
+        mean = (vals if fine is None else vals[:, fine]).mean(axis=1)
         logh = float(np.clip(_parabolic_peak(local, mean), lo, hi))
         u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
         # every mode along the whole ridge: the mode groups' peaks there give the uncertainty

@@ -17,7 +17,14 @@ from wavealt.altimetry.dispersion import (
     _wrap,
     estimate_altitude,
 )
-from wavealt.altimetry.dispersion.constants import MIN_PROMINENCE_Z
+from wavealt.altimetry.dispersion.constants import (
+    BLIND_REFINE_MIN_KAPPA,
+    BLIND_SD_FLOOR_LOG,
+    MIN_PROMINENCE_Z,
+    MIN_REFINE_MODES,
+    PAIRED_BAND_SD_FRACTION,
+)
+from wavealt.altimetry.dispersion.profile import paired_band
 from wavealt.altimetry.series import altitude_series
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -689,6 +696,88 @@ def test_a_blind_start_at_the_bottom_is_followed_to_the_top_of_the_range(above_b
     assert abs(np.exp(fit["logh"]) - h) / h < 0.06
     assert np.allclose(fit["u"], u_true, atol=0.05)
 
+
+
+def test_slow_content_at_the_bottom_of_the_band_does_not_move_the_blind_estimate(
+        monkeypatch) -> None:
+    """The optics' difference products fill the bottom of the wavenumber band with content
+    slower than the shell, which a slower shell plus more drift fits.  The blind profile's
+    peak is refined on the modes above ``BLIND_REFINE_MIN_KAPPA``: moving the bottom modes'
+    content onto the shell of a 15 % higher altitude changes the profile but not the
+    estimate, which on every mode it would pull up."""
+    from wavealt.altimetry.dispersion import profile
+
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    u = np.asarray(camera_v) * focal_px / (h * 30.0)  # the periodogram's convention
+    p = est._periodogram(frames)
+    low = np.flatnonzero(p["kappa"] < BLIND_REFINE_MIN_KAPPA)
+    assert 10 <= low.size <= p["kappa"].size - MIN_REFINE_MODES
+    slowed = {k: p[k] for k in ("kx", "ky", "kappa", "frames", "corners", "tile")}
+    q = p["q"].copy()
+    n_psi = q.shape[1]
+    to_steps = n_psi / (2.0 * np.pi)
+    kap = p["kappa"][low]
+    om, om_slow = (est.omega(kap * focal_px / a) / 30.0 for a in (h, 1.15 * h))
+    dop = p["kx"][low] * u[0] + p["ky"][low] * u[1]
+    for m, w, w_slow, d in zip(low, om, om_slow, dop):
+        # the mode's content, on the branch of its wave, moved to the slower shell's step
+        s = max((1, -1), key=lambda b: q[m, int(round((b * w - d) * to_steps)) % n_psi])
+        q[m] = np.roll(q[m], int(round(s * (w_slow - w) * to_steps)))
+    slowed["q"] = q
+
+    def fit(table: dict) -> dict:
+        return est._fit_blind(dict(table), 30.0, focal_px, np.log(h), u)
+
+    plain, moved = fit(p), fit(slowed)
+    assert np.max(np.abs(moved["scan"] - plain["scan"])) > 1e-3 * np.max(plain["scan"])
+    assert abs(np.exp(plain["logh"]) - h) / h < 0.03
+    assert moved["logh"] == pytest.approx(plain["logh"], abs=1e-4)
+    # refined on every mode, the slow content pulls the estimate up
+    monkeypatch.setattr(profile, "BLIND_REFINE_MIN_KAPPA", 0.0)
+    assert fit(slowed)["logh"] > fit(p)["logh"] + 1e-3
+
+
+def test_the_paired_band_is_where_the_peak_beats_the_ridge_by_less_than_a_standard_error(
+        ) -> None:
+    """Per-mode differences from the peak with mean ``0.5 |j - i|`` standard errors: the band
+    ends 2 steps either side (t crosses 1 there); a flat ridge reaches a step beyond both
+    ends of the grid; the more the modes agree, the narrower the band."""
+    rng = np.random.default_rng(3)
+    n, i = 400, 6
+    grid = np.log(4.0) + (np.arange(13) - i) * 0.05
+    eps = rng.standard_normal(n)
+    eps = (eps - eps.mean()) / eps.std()
+    base = rng.random(n)
+
+    def ridge(slope: float, spread: float) -> np.ndarray:
+        rows = [base - slope * abs(j - i) * spread / np.sqrt(n) - (j != i) * spread * eps
+                for j in range(grid.size)]
+        return np.array(rows, dtype=np.float32)
+
+    assert paired_band(grid, ridge(0.5, 0.01), i) == pytest.approx(2 * 0.05, rel=1e-3)
+    assert paired_band(grid, ridge(0.0, 0.01), i) == pytest.approx(
+        0.5 * (grid[-1] - grid[0]) + 0.05, rel=1e-9)
+    assert paired_band(grid, ridge(2.0, 0.01), i) == pytest.approx(0.5 * 0.05, rel=1e-3)
+
+
+def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
+    """The systematic term of a blind fit's uncertainty is the larger of the floor and
+    ``PAIRED_BAND_SD_FRACTION`` of the paired band: a fit whose ridge the peak does not beat
+    over +-20 % says so, however well its mode groups agree."""
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    fit = est._fit_blind(p, 30.0, focal_px, np.log(h), np.zeros(2))
+    res = est._judge(est._result(p, fit, 30, 30.0, focal_px))
+    sd_log = res.altitude_std_m / res.altitude_m
+    assert res.trusted
+    assert sd_log >= max(BLIND_SD_FLOOR_LOG, PAIRED_BAND_SD_FRACTION * fit["band_log"])
+    flat = est._result(p, {**fit, "band_log": 0.2}, 30, 30.0, focal_px)
+    assert flat.altitude_std_m / flat.altitude_m >= PAIRED_BAND_SD_FRACTION * 0.2
+    assert not est._judge(flat).trusted
 
 
 @pytest.fixture(params=["arrays", "compiled"])

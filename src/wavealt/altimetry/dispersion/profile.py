@@ -156,7 +156,8 @@ class _Profile:
         noise = null_sd(p, sub)
         return {"logh": logh, "u": u, "scan": scan, "interior": interior,
                 "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
-                "local": local, "vals": vals, "ridge": (grid, ridge)}
+                "local": local, "vals": vals, "ridge": (grid, ridge),
+                "band_log": paired_band(grid, ridge, i)}
 
     def _seed_profile(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
                       scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:
@@ -331,3 +332,29 @@ class _Profile:
         if significant:
             return significant[0]
         return _most_prominent(scan, grid, lo - step, hi + step)
+
+
+def paired_band(grid: np.ndarray, ridge: np.ndarray, i: int, t_max: float = 1.0) -> float:
+    """Half-width, in log altitude, of the stretch of the blind ridge around its point ``i``
+    that point ``i`` does not beat by ``t_max`` standard errors: at each point ``j`` the
+    per-mode differences ``ridge[i] - ridge[j]`` (``ridge``: ``(grid, modes)`` explained
+    shares along the ridge) give a paired t statistic, mean over standard error.  Where the
+    stretch reaches an end of the grid it counts a step beyond it.  A flat ridge (drift
+    trading against altitude) makes a wide band however well the mode groups agree
+    (``PAIRED_BAND_SD_FRACTION``)."""
+    diff = ridge[i][None, :].astype(np.float64) - ridge
+    se = diff.std(axis=1) / math.sqrt(max(ridge.shape[1], 1))
+    t = diff.mean(axis=1) / np.maximum(se, 1e-30)
+    t[i] = 0.0
+    step = float(grid[1] - grid[0]) if grid.size > 1 else 0.0
+    ends = []
+    for way in (-1, 1):
+        j = i
+        while 0 <= j + way < grid.size and t[j + way] < t_max:
+            j += way
+        nb = j + way
+        if 0 <= nb < grid.size:  # where t crosses t_max, between j and nb
+            ends.append(grid[j] + (t_max - t[j]) / (t[nb] - t[j]) * (grid[nb] - grid[j]))
+        else:
+            ends.append(grid[j] + way * step)
+    return float(0.5 * (ends[1] - ends[0]))

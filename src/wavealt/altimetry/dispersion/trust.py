@@ -16,6 +16,7 @@ from wavealt.altimetry.dispersion.constants import (
     MAX_TRUSTED_3SIGMA,
     MIN_PROMINENCE_Z,
     MIN_SIGNIFICANCE,
+    PAIRED_BAND_SD_FRACTION,
     PROFILE_PROMINENCE,
     RESOLUTION_FRACTION,
     SCAN_PROMINENCE,
@@ -87,6 +88,9 @@ class _Trust:
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
+        if profile:
+            # on a flat ridge a small bias moves the peak far: the paired band's width
+            floor = max(floor, PAIRED_BAND_SD_FRACTION * fit["band_log"])
         sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), floor)
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution

@@ -40,16 +40,17 @@ class _Profile:
                        logh: float, u: np.ndarray, modes: np.ndarray | None, step: float,
                        min_step: float = 0.0015) -> tuple[float, np.ndarray]:
         """Image velocity (px/frame) of highest score at altitude ``exp(logh)``: a compass
-        (pattern) search from ``u``, nine candidates per call, halving ``step`` to
-        ``min_step``."""
-        off = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.float64)
-        lg = np.full(9, logh)
+        (pattern) search from ``u``, the eight neighbours ``step`` away per call (the
+        centre's score is known), halving ``step`` to ``min_step``."""
+        off = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy],
+                       dtype=np.float64)
+        lg = np.full(off.shape[0], logh)
         best = float(self._score(p, fps, focal_px, lg[:1], u[:1], u[1:], modes)[0])
         while step >= min_step:
             cand = u[None, :] + step * off
             val = self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)
             j = int(np.argmax(val))
-            if j != 4 and val[j] > best:
+            if val[j] > best:
                 best, u = float(val[j]), cand[j]
             else:
                 step *= 0.5

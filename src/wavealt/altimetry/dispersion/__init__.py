@@ -29,7 +29,10 @@ of the mode's complex amplitudes over the clip), and scores a candidate
   step wraps, and a free velocity fits noise).  The phase-step fit alone is exact on imagery
   linear in slope but biased on rendered frames, whose non-linear optics (Fresnel, glint)
   add difference-frequency products that move slower than the waves; the profile needs a
-  clip long enough to resolve them (about 1 s).
+  clip long enough to resolve them (about 1 s).  They fill the bottom of the wavenumber
+  band, where with the velocity free a slower shell plus more drift fits them, so the
+  profile's peak is refined on the modes above it (an ideal camera linear in slope shows
+  no such pull).
 
 With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehicle's
 navigation, the water's current unknown) exact fits at velocities spread over the prior
@@ -46,9 +49,12 @@ the altitude scan (quality; blind, its prominence must also exceed five standard
 deviations of the profile's noise), have a 3-sigma interval within 10 % of the altitude,
 and lie inside the altitude range searched.  The uncertainty is the spread of the peak
 over bands of wavenumber (the true shell gives one altitude at every wavenumber; the
-optics' products do not) plus a systematic floor and, velocity known, the part of a
-periodogram bin (``2 pi / T`` a frame) that the clip's phase steps resolve at the
-estimate; an untrusted window's interval spans the whole range.  The blind profile is the
+optics' products do not) plus a systematic term: a floor; blind, at least a part of the
+stretch of the ridge that the peak does not beat by one standard error of its per-mode
+differences (a paired test: where drift trades against altitude the ridge is flat, and a
+small bias moves the peak along it); and, velocity known, the part of a periodogram bin
+(``2 pi / T`` a frame) that the clip's phase steps resolve at the estimate.  An untrusted
+window's interval spans the whole range.  The blind profile is the
 score maximised over the velocity, so a point the continuation leaves below both of its
 neighbours is searched again from theirs.
 Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or

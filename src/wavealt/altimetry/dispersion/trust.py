@@ -63,7 +63,10 @@ class _Trust:
         (``fit["ridge"]``), they are taken along the whole profile, the velocity re-fitted at
         every altitude: along the ridge drift trades against altitude, and a group whose
         profile is flat puts its peak far off, so the spread measures how well the clip pins
-        the altitude (on the fine grid alone it was 2-20 times too small).
+        the altitude (on the fine grid alone it was 2-20 times too small).  Where every
+        group sees the same flat ridge the spread stays small; the ridge's paired band
+        (:func:`~wavealt.altimetry.dispersion.profile.paired_band`) then sets the systematic
+        term (``PAIRED_BAND_SD_FRACTION``).
         """
         logh, u = fit["logh"], fit["u"]
         vals = fit["vals"]

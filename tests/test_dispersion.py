@@ -19,6 +19,7 @@ from wavealt.altimetry.dispersion import (
 )
 from wavealt.altimetry.dispersion.constants import (
     BLIND_REFINE_MIN_KAPPA,
+    CARRIED_MIN_RATIO,
     BLIND_SD_FLOOR_LOG,
     MIN_PROMINENCE_Z,
     MIN_REFINE_MODES,
@@ -737,6 +738,98 @@ def test_slow_content_at_the_bottom_of_the_band_does_not_move_the_blind_estimate
     # refined on every mode, the slow content pulls the estimate up
     monkeypatch.setattr(profile, "BLIND_REFINE_MIN_KAPPA", 0.0)
     assert fit(slowed)["logh"] > fit(p)["logh"] + 1e-3
+
+
+def _carried_texture(size: int, frames: int, u: np.ndarray, seed: int = 0) -> np.ndarray:
+    """Foam-like patches (a tenth of the area, soft edges) carried across ``(frames, size,
+    size)`` images at ``-u`` px/frame (``u`` in the periodogram's convention, the camera's
+    image velocity over the water), unit standard deviation."""
+    from scipy.ndimage import gaussian_filter
+    from scipy.ndimage import shift as nd_shift
+
+    big = gaussian_filter(np.random.default_rng(seed).standard_normal((2 * size, 2 * size)), 2.0)
+    big = gaussian_filter((big > np.quantile(big, 0.9)).astype(np.float64), 1.0)
+    a = size // 2
+    out = np.stack([nd_shift(big, (-u[1] * t, -u[0] * t), order=1, mode="wrap")[a:a + size, a:a + size]
+                    for t in range(frames)])
+    return (out - out.mean()) / out.std()
+
+
+def test_a_carried_pattern_is_found_and_removed_and_the_waves_stay() -> None:
+    """A texture carried whole across the image (whole pixels per frame, so its modes turn
+    exactly ``-kappa . u`` per frame) over one travelling wave: the carried search finds its
+    velocity and calls it broad; the table built with it removed holds nothing at its phase
+    steps (on modes where it differs from a static pattern) and the wave's share whole.  (The
+    frames' window does not move with the texture, so before the removal each mode holds it
+    smeared over a few steps; the least-squares removal takes exactly its component at the
+    line.)"""
+    est = DispersionAltimeter(dispersion="gravity")
+    n, t = 96, 30
+    u = np.array([1.0, -2.0])  # px/frame, the periodogram's convention
+    tex = np.random.default_rng(3).standard_normal((n, n))
+    carried = np.stack([np.roll(tex, (-int(u[1]) * i, -int(u[0]) * i), axis=(0, 1))
+                        for i in range(t)])
+    yy, xx = np.mgrid[:n, :n]
+    k = 2.0 * np.pi * np.array([9.0, 4.0]) / n
+    wave = np.stack([np.cos(k[0] * xx + k[1] * yy - 0.9 * i) for i in range(t)])
+    frames = (carried + 0.5 * wave).astype(np.float32)
+    est.corner_tiles = 0.0  # the whole frame: the roll is then a translation of every mode
+    p = est._periodogram(frames)
+    u_found, ratio = est._carried_velocity(p, 30.0, 100.0)
+    assert np.hypot(*(u_found - u)) < 0.01, u_found
+    assert ratio >= CARRIED_MIN_RATIO
+    pc = est._periodogram(frames, carried=u)
+    assert pc["carried"] is u
+    inf = np.array([np.inf])
+    line = est._mode_values(pc, 30.0, 100.0, inf, u[:1], u[1:])[0]
+    before = est._mode_values(p, 30.0, 100.0, inf, u[:1], u[1:])[0]
+    moving = np.abs(_wrap(pc["kx"] * u[0] + pc["ky"] * u[1])) > 0.5
+    assert np.median(before[moving]) > 10.0 * np.median(p["q"])
+    assert np.max(line[moving]) < 1e-6
+    # the wave's mode: all of what is left, one travelling wave, at its phase step 0.9
+    m = int(np.argmin(np.hypot(pc["kx"] - k[0], pc["ky"] - k[1])))
+    assert np.hypot(pc["kx"][m] - k[0], pc["ky"][m] - k[1]) < 1e-9
+    j = int(round(0.9 / (2.0 * np.pi) * pc["q"].shape[1]))
+    assert pc["q"][m, j] > 0.9
+    assert pc["q"][m, j] >= p["q"][m, j] - 1e-3
+
+
+def test_a_line_that_crosses_the_wave_shell_is_not_taken_for_a_carried_pattern() -> None:
+    """Clips of waves alone (an ideal camera, still or drifting): the best velocity with no
+    wave term makes its line of phase steps cross the shell where a band of modes is wholly
+    wave, but most modes hold nothing there, and the blind fit leaves the table whole."""
+    est = DispersionAltimeter(dispersion="gravity")
+    for h, speed, direction, size, frames in ((2.0, 0.0, 0.0, 64, 10), (3.0, 0.3, 30.0, 64, 10),
+                                              (4.0, 0.5, 60.0, 128, 30),
+                                              (10.0, 1.0, 200.0, 128, 30)):
+        clip, focal_px, _ = _linear_frames(h, 7.0, speed, direction, size=size, frames=frames)
+        ratio = est._carried_velocity(est._periodogram(clip), 30.0, focal_px)[1]
+        assert ratio < CARRIED_MIN_RATIO, (h, speed, ratio)
+        assert "+carried" not in est.estimate(clip, fps=30.0, focal_px=focal_px).signal
+
+
+def test_foam_carried_by_the_water_is_removed_before_the_blind_fit(monkeypatch) -> None:
+    """Foam-like patches ride with the water over an ideal camera's waves, ten times their
+    contrast: the shell of a higher camera nears the foam's line of phase steps, and left
+    in, the foam draws the blind profile up to the top of the range.  Removed, the estimate
+    and the water's velocity are the waves'."""
+    from wavealt.altimetry.dispersion import altimeter
+
+    h = 10.0
+    clip, focal_px, camera_v = _linear_frames(h, 8.0, 0.6, 40.0, size=128, frames=30)
+    u = np.asarray(camera_v) * focal_px / (h * 30.0)
+    frames = clip + 10.0 * clip.std() * _carried_texture(128, 30, u)
+    frames = ((frames - frames.min()) / np.ptp(frames)).astype(np.float32)
+    est = DispersionAltimeter(dispersion="gravity")
+    res = est.estimate(frames, fps=30.0, focal_px=focal_px)
+    assert res.signal.endswith("+carried")
+    assert abs(res.altitude_m - h) / h < 0.05
+    assert np.allclose(res.camera_velocity_mps, camera_v, atol=0.1)
+    assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m
+    monkeypatch.setattr(altimeter, "CARRIED_MIN_RATIO", np.inf)
+    left_in = est.estimate(frames, fps=30.0, focal_px=focal_px)
+    assert not left_in.signal.endswith("+carried")
+    assert abs(left_in.altitude_m - h) / h > 0.2
 
 
 def test_the_paired_band_is_where_the_peak_beats_the_ridge_by_less_than_a_standard_error(

@@ -10,6 +10,9 @@ import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_frames
 from wavealt.altimetry.dispersion.constants import (
+    BLIND_MAP_KAPPA,
+    CARRIED_MATCH_BINS,
+    CARRIED_MIN_RATIO,
     CHROMA_CHECK_QUALITY,
     DEGLINTS,
     DISPERSIONS,
@@ -309,8 +312,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         if not start:
             return self._failed(t) if prior is None else spread
         if prior is None:
-            fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"])
-            return self._result(p, fit, t, fps, focal_px)
+            return self._blind(p, signal, start, fps, focal_px)
         # A prior whose spread moves the altitude (a wide prior, a short clip): the blind
         # search, the prior choosing among the profile's peaks, and a fit whose velocity
         # lies outside the prior not trusted.  The exact fit at the prior's mean read
@@ -318,8 +320,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         # 31): a current of up to 1 m/s moves the shell it assumes.
         vx, vy, sigma = prior
         radius = PRIOR_SIGMAS * sigma
-        fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"], (vx, vy, radius))
-        res = self._result(p, fit, t, fps, focal_px)
+        res = self._blind(p, signal, start, fps, focal_px, (vx, vy, radius))
         off = math.hypot(res.camera_velocity_mps[0] - vx, res.camera_velocity_mps[1] - vy)
         if off > radius:
             res.reason = (f"velocity {off:.2f} m/s from the prior's mean, beyond "
@@ -333,6 +334,37 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                             < res.altitude_std_m / res.altitude_m):
             return spread
         return res
+
+
+    def _blind(self, p: dict[str, Any], signal: np.ndarray, start: dict[str, Any], fps: float,
+               focal_px: float, disk: tuple[float, float, float] | None = None
+               ) -> DispersionResult:
+        """The blind fit (:meth:`_fit_blind`, ``disk``: a prior's) of periodogram ``p`` of
+        ``signal``, from the phase-step ``start``, with the water's carried pattern removed
+        where there is one.
+
+        Foam, and whatever else floats, rides with the water without dispersion: in the
+        periodogram it is a line of phase steps ``-kappa . u`` at the water's own velocity
+        ``u``, which the shell of a slower sea (a higher camera) approaches, so that the
+        profile rises toward the top of the range with no peak at the truth.  Where the
+        clip carries a pattern in most of its modes (:meth:`_carried_velocity`,
+        ``CARRIED_MIN_RATIO``), it is removed from the periodogram (:meth:`_periodogram`)
+        and the profile fitted again; the waves must then confirm that the pattern rode
+        with the water, the fit's velocity within ``CARRIED_MATCH_BINS`` of a low mode's
+        periodogram bin of the pattern's, else the fit with the pattern left in stands.
+        """
+        t = int(p["frames"])
+        u_c, ratio = self._carried_velocity(p, fps, focal_px)
+        if ratio >= CARRIED_MIN_RATIO:
+            pc = self._periodogram(signal, corners=p["corners"], carried=u_c)
+            fit = self._fit_blind(pc, fps, focal_px, start["logh"], -start["u"], disk)
+            match = CARRIED_MATCH_BINS * (2.0 * math.pi / t) / BLIND_MAP_KAPPA
+            if math.hypot(*(fit["u"] - u_c)) <= match:
+                res = self._result(pc, fit, t, fps, focal_px)
+                res.signal = f"{'corners' if p['corners'] else 'full'}+carried"
+                return res
+        fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"], disk)
+        return self._result(p, fit, t, fps, focal_px)
 
 
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,

@@ -165,6 +165,21 @@ BLIND_SEED_EVERY = 4
 BLIND_MAP_KAPPA = 0.5
 BLIND_MAX_SPEED_MPS = 5.0
 BLIND_SEED_MIN_Z = 20.0
+#: A pattern carried across the image without dispersion (foam riding with the water) is
+#: removed from a blind fit's periodogram (:meth:`DispersionAltimeter._blind`) where the
+#: median mode explains at least this many times its mean share at the pattern's phase
+#: step (:meth:`_carried_velocity`).  Realistic preset, tuning seeds 101 and 202, 120
+#: windows a row: where foam rode with the water, 19-38 at 30 frames (weaker foam 0.2-5.5);
+#: where the line crossed the wave shell instead, at most 3.6 at 30 frames, 12.6 at 15 and
+#: 11.5 at 10 (a shorter clip's broader peaks put more modes near a crossing), 9.2 on the
+#: test suite's 64 px 10-frame clips of an ideal camera.  So only strong foam, in clips of
+#: about a second, is removed.  The fit with it removed stands where its velocity lies
+#: within ``CARRIED_MATCH_BINS`` of a periodogram bin, seen by the map's top wavenumber
+#: (``(2 pi / T) / BLIND_MAP_KAPPA`` px/frame), of the pattern's.  The map looks for the
+#: pattern among its ``CARRIED_MAP_PEAKS`` best peaks.
+CARRIED_MIN_RATIO = 15.0
+CARRIED_MATCH_BINS = 0.25
+CARRIED_MAP_PEAKS = 5
 #: A velocity prior keeps the blind search's velocity within this many sigmas of its mean
 #: (a disk; :meth:`DispersionAltimeter._fit_blind`): a 2-D normal error of ``sigma`` per
 #: axis lies within it with probability ``1 - exp(-PRIOR_SIGMAS^2 / 2)`` = 0.989.

@@ -19,6 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_REFINE_MIN_KAPPA,
     BLIND_SEED_EVERY,
     BLIND_SEED_MIN_Z,
+    CARRIED_MAP_PEAKS,
     MIN_REFINE_MODES,
     MIN_SIGNIFICANCE,
 )
@@ -242,7 +243,8 @@ class _Profile:
         return self._map_tables(p)["step"]
 
     def _velocity_map_peaks(self, p: dict[str, Any], fps: float, focal_px: float,
-                            logh: float, n_keep: int = 3) -> list[np.ndarray]:
+                            logh: float, n_keep: int = 3,
+                            umax: float | None = None) -> list[np.ndarray]:
         """The ``n_keep`` best local maxima (px/frame) of the score of the low modes over the
         image velocity at altitude ``exp(logh)``, within ``BLIND_MAX_SPEED_MPS`` (and
         ``max_shift_px``) of still.
@@ -251,7 +253,9 @@ class _Profile:
         linear in the velocity, ``s omega / fps - kappa . u``; the modes lie on the tile's
         wavenumber lattice ``kappa = 2 pi (a / w, b / h)``, so the sum over the modes, both
         directions ``s`` added, is one 2-D FFT over a velocity lattice of period ``(w, h)``
-        px/frame (exact at its points, which are :meth:`_map_step` apart).
+        px/frame (exact at its points, which are :meth:`_map_step` apart).  ``logh = inf``
+        maps a pattern carried without dispersion (:meth:`_carried_velocity`); ``umax``,
+        px/frame, replaces the speed bound.
         """
         th, tw = p["tile"]
         m = self._map_tables(p)
@@ -268,7 +272,9 @@ class _Profile:
         uy = np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th))
         ux = np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))
         # the local maxima within the speed searched (the map spans a whole period)
-        umax = min(self.max_shift_px, BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps))
+        if umax is None:
+            umax = BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps)
+        umax = min(self.max_shift_px, umax)
         rows, cols = np.flatnonzero(np.abs(uy) <= umax), np.flatnonzero(np.abs(ux) <= umax)
         score = score[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
         uy, ux = uy[rows[0]:rows[-1] + 1, None], ux[None, cols[0]:cols[-1] + 1]
@@ -280,6 +286,35 @@ class _Profile:
         peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
         peaks = peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]
         return [np.array([ux[0, i % nx], uy[i // nx, 0]]) for i in peaks]
+
+    def _carried_velocity(self, p: dict[str, Any], fps: float,
+                          focal_px: float) -> tuple[np.ndarray, float]:
+        """The image velocity (px/frame, the table's convention) of the strongest pattern
+        the clip carries across the image without dispersion, and how broadly it is
+        carried: the median over the modes of each mode's share at the pattern's phase step
+        ``-kappa . u`` over its mean share.
+
+        The velocity maximises the score with no wave term (``omega = 0``): the best of the
+        velocity map's few best peaks (:meth:`_velocity_map_peaks`), scored on every mode,
+        refined.  Foam and floating matter ride with the water and fill every mode; the
+        score's maximum alone does not tell them apart from a velocity whose line of phase
+        steps crosses the wave shell, where a band of modes that the waves fill wholly
+        makes a high score while most modes hold nothing there (``CARRIED_MIN_RATIO``).
+        """
+        lo = self.altitude_range_m[0]
+        umax = BLIND_MAX_SPEED_MPS * focal_px / (lo * fps)
+        peaks = self._velocity_map_peaks(p, fps, focal_px, math.inf, CARRIED_MAP_PEAKS, umax)
+        if not peaks:
+            return np.zeros(2), 0.0
+        cand = np.array(peaks)
+        inf = np.full(len(peaks), math.inf)
+        k = int(np.argmax(self._score(p, fps, focal_px, inf, cand[:, 0], cand[:, 1])))
+        u = self._best_velocity(p, fps, focal_px, math.inf, cand[k], None, self._map_step(p),
+                                min_step=0.005)[1]
+        vals = self._mode_values(p, fps, focal_px, inf[:1], u[:1], u[1:])[0]
+        if "_qbar" not in p:
+            p["_qbar"] = p["q"].mean(axis=1)
+        return u, float(np.median(vals / np.maximum(p["_qbar"], 1e-30)))
 
     def _fill_dips(self, p: dict[str, Any], fps: float, focal_px: float, grid: np.ndarray,
                    scan: np.ndarray, path: np.ndarray, modes: np.ndarray) -> None:

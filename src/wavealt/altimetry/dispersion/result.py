@@ -37,7 +37,8 @@ class DispersionResult:
         Number of spatial modes in the final fit.
     signal : str
         The scalar sequence fitted (``"luma"`` or ``"chroma"``) and the tiles it was
-        transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``.
+        transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``; a blind fit
+        from which a pattern carried with the water (foam) was removed adds ``"+carried"``.
     """
 
     altitude_m: float

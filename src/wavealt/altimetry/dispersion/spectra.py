@@ -63,6 +63,24 @@ def _corners(arr: np.ndarray, frac: float = 0.5) -> list[np.ndarray]:
     return [arr[:, :h, :w], arr[:, :h, w0 - w:], arr[:, h0 - h:, :w], arr[:, h0 - h:, w0 - w:]]
 
 
+def _remove_carried(g: np.ndarray, psi0: np.ndarray) -> None:
+    """Remove from mean-free mode series ``g`` ``(parts, T, modes)``, in place, each mode's
+    least-squares component ``a (e^{-i psi0 t} - mean)`` at its phase step ``psi0`` per frame
+    (a pattern carried across the image without changing: foam riding with the water).
+
+    Its coefficient is ``z(psi0) / D(psi0)`` (:meth:`_Spectra._periodogram`); a mode whose
+    ``psi0`` is so near zero that removing the mean took the pattern (``D < 0.05 T``, the
+    table's own bound for a static pattern) is kept as it is.
+    """
+    t = g.shape[1]
+    e = np.exp(-1j * np.outer(np.arange(t), psi0))  # (T, modes)
+    e -= e.mean(axis=0, keepdims=True)
+    d0 = np.einsum("tm,tm->m", e.real, e.real) + np.einsum("tm,tm->m", e.imag, e.imag)
+    z0 = np.einsum("tm,ptm->pm", np.conj(e), g)  # (parts, modes)
+    coef = np.where(d0 >= 0.05 * t, 1.0, 0.0) * z0 / np.maximum(d0, 1e-9)
+    g -= (coef[:, None, :] * e[None]).astype(g.dtype)
+
+
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -129,7 +147,8 @@ class _Spectra:
         }
 
     # -- whitened periodogram ----------------------------------------------------------------
-    def _periodogram(self, signal: np.ndarray, corners: bool = True) -> dict[str, Any]:
+    def _periodogram(self, signal: np.ndarray, corners: bool = True,
+                     carried: np.ndarray | None = None) -> dict[str, Any]:
         """Per spatial mode, the share of its temporal energy one travelling wave explains,
         tabulated over the phase step per frame.
 
@@ -153,6 +172,10 @@ class _Spectra:
         float16), relative MAE with the whole frame plus its quadrants -> with corner tiles
         of 0.4: clean 1.49 / 0.77 / 1.08 -> 0.96 / 0.50 / 0.85 %, glinty 3.10 / 1.19 / 1.46
         -> 1.66 / 1.01 / 1.37 %.
+
+        ``carried``: the image velocity (px/frame, the table's convention) of a pattern that
+        the water carries without dispersion (foam); its content is removed first
+        (:meth:`_share_table`) and ``p["carried"]`` records it.
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
@@ -165,20 +188,24 @@ class _Spectra:
         denom = np.maximum(t - dirichlet / t, 1e-9)
         corners = corners and _fast_len(int(self.corner_tiles * min(h, w))) >= 32
         parts = _corners(signal, self.corner_tiles) if corners else [signal]
-        q, kx, ky, kappa = self._share_table(parts, basis, denom, self.max_modes)
+        q, kx, ky, kappa = self._share_table(parts, basis, denom, self.max_modes, carried)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
-                "tile": parts[0].shape[1:]}
+                "tile": parts[0].shape[1:], "carried": carried}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
-                     limit: int) -> tuple[np.ndarray, ...]:
+                     limit: int, carried: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
-        parts; and the modes' ``kx, ky, kappa``."""
+        parts; and the modes' ``kx, ky, kappa``.  With ``carried`` (px/frame), each mode's
+        least-squares component at the carried pattern's phase step ``-kappa . carried``
+        is removed first (:func:`_remove_carried`)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
         # the temporal mean of every pixel, removed where it is cheap: per selected mode
         g -= g.mean(axis=1, keepdims=True)
+        if carried is not None:
+            _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
         x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
         energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
         # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step as one real matrix

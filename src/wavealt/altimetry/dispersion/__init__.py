@@ -32,7 +32,12 @@ of the mode's complex amplitudes over the clip), and scores a candidate
   clip long enough to resolve them (about 1 s).  They fill the bottom of the wavenumber
   band, where with the velocity free a slower shell plus more drift fits them, so the
   profile's peak is refined on the modes above it (an ideal camera linear in slope shows
-  no such pull).
+  no such pull).  Foam and floating matter ride with the water without dispersion: a
+  line of phase steps ``kappa . u / fps`` (eq. (1) without the wave) that the shell of a
+  higher camera approaches, lifting the profile toward the top of the range.  Where most
+  modes carry such a pattern it is removed from the periodogram (each mode's
+  least-squares component at that step) before the profile, and the result kept where
+  the waves' velocity confirms the pattern's.
 
 With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehicle's
 navigation, the water's current unknown) exact fits at velocities spread over the prior

@@ -763,7 +763,8 @@ def test_a_carried_pattern_is_found_and_removed_and_the_waves_stay() -> None:
     frames' window does not move with the texture, so before the removal each mode holds it
     smeared over a few steps; the least-squares removal takes exactly its component at the
     line.)"""
-    est = DispersionAltimeter(dispersion="gravity")
+    # the whole frame: the roll is then a translation of every mode
+    est = DispersionAltimeter(dispersion="gravity", corner_tiles=0.0)
     n, t = 96, 30
     u = np.array([1.0, -2.0])  # px/frame, the periodogram's convention
     tex = np.random.default_rng(3).standard_normal((n, n))
@@ -773,7 +774,6 @@ def test_a_carried_pattern_is_found_and_removed_and_the_waves_stay() -> None:
     k = 2.0 * np.pi * np.array([9.0, 4.0]) / n
     wave = np.stack([np.cos(k[0] * xx + k[1] * yy - 0.9 * i) for i in range(t)])
     frames = (carried + 0.5 * wave).astype(np.float32)
-    est.corner_tiles = 0.0  # the whole frame: the roll is then a translation of every mode
     p = est._periodogram(frames)
     u_found, ratio = est._carried_velocity(p, 30.0, 100.0)
     assert np.hypot(*(u_found - u)) < 0.01, u_found

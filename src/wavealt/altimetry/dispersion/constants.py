@@ -74,6 +74,11 @@ MIN_REFINE_MODES = 64
 #: highest point, which widens the spread (:meth:`DispersionAltimeter._result`).
 GROUP_PEAK_WITHIN_LOG = 0.5
 MIN_FRAMES = 3
+#: A phase step holds a static pattern, which removing the temporal mean takes, where the
+#: mean-free wave's norm ``D(psi)`` (:meth:`~.spectra._Spectra._periodogram`) is below this
+#: part of the clip's ``T``: the table holds nothing there, and a carried pattern's removal
+#: leaves such a mode as it is.
+STATIC_NORM_FRACTION = 0.05
 #: Least prominence of the blind profile's peak in standard deviations of the profile's
 #: score under random phase steps (the noise of the mean over the modes it is taken on):
 #: below it the peak is a bump of noise on a profile that a texture without a shell lifts

@@ -180,15 +180,10 @@ class _Profile:
         noise = null_sd(p, modes)
         raised = []
         for j in range(0, grid.size, BLIND_SEED_EVERY):
-            peaks = self._velocity_map_peaks(p, fps, focal_px, float(grid[j]))
-            if not peaks:
+            best = self._map_best_velocity(p, fps, focal_px, float(grid[j]), modes)
+            if best is None:
                 continue
-            # the map's peaks scored on the profile's modes; the best refined
-            cand = np.array(peaks)
-            lg = np.full(len(peaks), grid[j])
-            k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)))
-            val, u = self._best_velocity(p, fps, focal_px, float(grid[j]), cand[k], modes,
-                                         self._map_step(p))
+            val, u = best
             if val > scan[j] + BLIND_SEED_MIN_Z * noise:
                 scan[j], path[j] = val, u
                 raised += [(j, -1), (j, 1)]
@@ -287,6 +282,23 @@ class _Profile:
         peaks = peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]
         return [np.array([ux[0, i % nx], uy[i // nx, 0]]) for i in peaks]
 
+    def _map_best_velocity(self, p: dict[str, Any], fps: float, focal_px: float, logh: float,
+                           modes: np.ndarray | None, n_keep: int = 3,
+                           umax: float | None = None, min_step: float = 0.0015
+                           ) -> tuple[float, np.ndarray] | None:
+        """The best of the velocity map's ``n_keep`` best peaks at altitude ``exp(logh)``
+        (:meth:`_velocity_map_peaks`, within ``umax``), scored on ``modes``, refined
+        (:meth:`_best_velocity` from the map's step down to ``min_step``): its score and
+        velocity, or None where the map has no peak."""
+        peaks = self._velocity_map_peaks(p, fps, focal_px, logh, n_keep, umax)
+        if not peaks:
+            return None
+        cand = np.array(peaks)
+        lg = np.full(len(peaks), logh)
+        k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)))
+        return self._best_velocity(p, fps, focal_px, logh, cand[k], modes, self._map_step(p),
+                                   min_step)
+
     def _carried_velocity(self, p: dict[str, Any], fps: float,
                           focal_px: float) -> tuple[np.ndarray, float]:
         """The image velocity (px/frame, the table's convention) of the strongest pattern
@@ -302,16 +314,12 @@ class _Profile:
         makes a high score while most modes hold nothing there (``CARRIED_MIN_RATIO``).
         """
         lo = self.altitude_range_m[0]
-        umax = BLIND_MAX_SPEED_MPS * focal_px / (lo * fps)
-        peaks = self._velocity_map_peaks(p, fps, focal_px, math.inf, CARRIED_MAP_PEAKS, umax)
-        if not peaks:
+        best = self._map_best_velocity(p, fps, focal_px, math.inf, None, CARRIED_MAP_PEAKS,
+                                       BLIND_MAX_SPEED_MPS * focal_px / (lo * fps), 0.005)
+        if best is None:
             return np.zeros(2), 0.0
-        cand = np.array(peaks)
-        inf = np.full(len(peaks), math.inf)
-        k = int(np.argmax(self._score(p, fps, focal_px, inf, cand[:, 0], cand[:, 1])))
-        u = self._best_velocity(p, fps, focal_px, math.inf, cand[k], None, self._map_step(p),
-                                min_step=0.005)[1]
-        vals = self._mode_values(p, fps, focal_px, inf[:1], u[:1], u[1:])[0]
+        u = best[1]
+        vals = self._mode_values(p, fps, focal_px, np.array([math.inf]), u[:1], u[1:])[0]
         if "_qbar" not in p:
             p["_qbar"] = p["q"].mean(axis=1)
         return u, float(np.median(vals / np.maximum(p["_qbar"], 1e-30)))

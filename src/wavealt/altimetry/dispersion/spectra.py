@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 import scipy.fft
 
+from wavealt.altimetry.dispersion.constants import STATIC_NORM_FRACTION
+
 
 def _wrap(phase: np.ndarray) -> np.ndarray:
     """Wrap angles to ``[-pi, pi)``."""
@@ -69,15 +71,15 @@ def _remove_carried(g: np.ndarray, psi0: np.ndarray) -> None:
     (a pattern carried across the image without changing: foam riding with the water).
 
     Its coefficient is ``z(psi0) / D(psi0)`` (:meth:`_Spectra._periodogram`); a mode whose
-    ``psi0`` is so near zero that removing the mean took the pattern (``D < 0.05 T``, the
-    table's own bound for a static pattern) is kept as it is.
+    ``psi0`` is so near zero that removing the mean took the pattern (the table's own bound
+    for a static pattern, ``STATIC_NORM_FRACTION``) is kept as it is.
     """
     t = g.shape[1]
     e = np.exp(-1j * np.outer(np.arange(t), psi0))  # (T, modes)
     e -= e.mean(axis=0, keepdims=True)
     d0 = np.einsum("tm,tm->m", e.real, e.real) + np.einsum("tm,tm->m", e.imag, e.imag)
     z0 = np.einsum("tm,ptm->pm", np.conj(e), g)  # (parts, modes)
-    coef = np.where(d0 >= 0.05 * t, 1.0, 0.0) * z0 / np.maximum(d0, 1e-9)
+    coef = np.where(d0 >= STATIC_NORM_FRACTION * t, 1.0, 0.0) * z0 / np.maximum(d0, 1e-9)
     g -= (coef[:, None, :] * e[None]).astype(g.dtype)
 
 
@@ -222,7 +224,8 @@ class _Spectra:
         share = explained
         share *= (1.0 / denom).astype(np.float32)[None, :]
         share *= (1.0 / energy).astype(np.float32)[:, None]
-        share[:, denom < 0.05 * t] = 0.0  # psi ~ 0: a static pattern, not a wave
+        # psi ~ 0: a static pattern, not a wave
+        share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
         # Sharpen: a mode counts in proportion to (explained share)^sharpness, so modes that
         # one travelling wave explains almost wholly dominate, and modes that mix the wave
         # with the rendering's non-linear products (harmonics, sum and difference

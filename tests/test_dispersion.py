@@ -18,7 +18,10 @@ from wavealt.altimetry.dispersion import (
     estimate_altitude,
 )
 from wavealt.altimetry.dispersion.constants import (
+    BLIND_MAP_KAPPA,
+    BLIND_MAP_REACH,
     BLIND_REFINE_MIN_KAPPA,
+    BLIND_SEED_PEAKS,
     CARRIED_MIN_RATIO,
     BLIND_SD_FLOOR_LOG,
     MIN_PROMINENCE_Z,
@@ -660,6 +663,37 @@ def test_the_velocity_map_peaks_at_the_waters_image_velocity() -> None:
         # refined from there, as the profile's seeds are
         u = est._best_velocity(p, 30.0, focal_px, np.log(h), best, None, est._map_step(p))[1]
         assert np.hypot(*(u - u_true)) < 0.05, (speed, u, u_true)
+
+
+def _band(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """``x`` (``(..., n, n)``) with only its wavenumbers ``lo < kappa <= hi`` rad/px kept."""
+    k = 2.0 * np.pi * np.fft.fftfreq(x.shape[-1])
+    kk = np.hypot(k[:, None], k[None, :])
+    return np.fft.ifft2(np.fft.fft2(x) * ((kk > lo) & (kk <= hi))).real
+
+
+@pytest.mark.parametrize(("h", "speed", "direction", "offset"),
+                         [(4.0, 0.6, 120.0, (-1.5, 1.0)), (3.0, 0.0, 0.0, (1.0, 1.0)),
+                          (6.0, 1.0, 250.0, (0.5, -1.2))])
+def test_the_velocity_map_finds_the_water_where_the_longest_modes_hold_something_else(
+        h: float, speed: float, direction: float, offset: tuple[float, float]) -> None:
+    """Where the longest modes (below the map's lattice-setting wavenumber) hold only a
+    pattern moving at another velocity, three times the waves' contrast, and the waves fill
+    the modes above: the map reaches those modes, and its best peak, scored on every mode,
+    lies within a fraction of a map step of the water's image velocity."""
+    frames, focal_px, camera_v = _linear_frames(h, 7.0, speed, direction, size=128, frames=30)
+    u_true = np.asarray(camera_v) * focal_px / (h * 30.0)  # the periodogram's convention
+    waves = _band(frames - frames.mean(), 0.6, np.inf)
+    other = _band(_carried_texture(128, 30, u_true + np.array(offset), seed=2), 0.0, 0.45)
+    x = (waves / waves.std() + 3.0 * other / other.std()).astype(np.float32)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(x)
+    assert BLIND_MAP_KAPPA < 0.6 <= BLIND_MAP_REACH * BLIND_MAP_KAPPA
+    peaks = np.array(est._velocity_map_peaks(p, 30.0, focal_px, np.log(h), BLIND_SEED_PEAKS))
+    score = est._score(p, 30.0, focal_px, np.full(len(peaks), np.log(h)), peaks[:, 0],
+                       peaks[:, 1])
+    best = peaks[int(np.argmax(score))]
+    assert np.hypot(*(best - u_true)) < 0.75 * est._map_step(p), (best, u_true)
 
 
 def test_a_blind_start_pinned_at_the_top_with_a_far_velocity_still_finds_the_shell() -> None:

@@ -156,10 +156,17 @@ ALIAS_MODE_FRACTION = 0.3
 BLIND_PEAK_CANDIDATES = 4
 #: The blind profile's global velocity search (:meth:`DispersionAltimeter._seed_profile`):
 #: every this many altitudes of the profile (x1.22 apart), a map of the score over the image
-#: velocity on the modes of ``kappa <= BLIND_MAP_KAPPA`` rad/px (whose peaks over the
-#: velocity are broad enough for a coarse map), within ``BLIND_MAX_SPEED_MPS`` of still
-#: (water against camera: the realistic preset flies at up to 3 m/s, currents add up to 1).
-#: The best of the map's three best peaks, refined, replaces the continuation's velocity
+#: velocity, within ``BLIND_MAX_SPEED_MPS`` of still (water against camera: the realistic
+#: preset flies at up to 3 m/s, currents add up to 1).  The map's lattice step is half the
+#: width of a mode's peak over the velocity at ``kappa = BLIND_MAP_KAPPA`` rad/px; its modes
+#: reach ``BLIND_MAP_REACH`` times that, where the step is a whole width, every peak then
+#: sampled within half a width of its top.  With the modes up to ``BLIND_MAP_KAPPA`` alone
+#: the map held no peak within 0.8 px/frame of the water on clean windows at 7-8 m in wind
+#: of 11-12 m/s (realistic preset, tuning seed 202): there the longest modes hold foam and
+#: the optics' slow products, and the waves fill the modes above (the truth's share 21 times
+#: the mean in the lowest sixth of the band, 41-53 above).  The best of the map's
+#: ``BLIND_SEED_PEAKS`` best peaks (the modes' rings add local maxima; the water was fifth),
+#: refined, replaces the continuation's velocity
 #: where it scores ``BLIND_SEED_MIN_Z`` of the profile's noise more (on the tuning seeds,
 #: the best of many velocities on noise beat it by 3-10 sigma at low altitudes, the
 #: shell's ridge by 30-100).  Used only where the start is pinned to an end of the range.
@@ -168,6 +175,8 @@ BLIND_PEAK_CANDIDATES = 4
 #: 14 windows fixed and 6 broken against 14 and 10.
 BLIND_SEED_EVERY = 4
 BLIND_MAP_KAPPA = 0.5
+BLIND_MAP_REACH = 2.0
+BLIND_SEED_PEAKS = 8
 BLIND_MAX_SPEED_MPS = 5.0
 BLIND_SEED_MIN_Z = 20.0
 #: A pattern carried across the image without dispersion (foam riding with the water) is

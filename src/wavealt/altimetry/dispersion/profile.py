@@ -12,6 +12,7 @@ import scipy.fft
 from wavealt.altimetry.dispersion.constants import (
     ALIAS_MODE_FRACTION,
     BLIND_MAP_KAPPA,
+    BLIND_MAP_REACH,
     BLIND_MAX_SPEED_MPS,
     BLIND_PEAK_CANDIDATES,
     BLIND_PROFILE_ABOVE_LOG,
@@ -19,6 +20,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_REFINE_MIN_KAPPA,
     BLIND_SEED_EVERY,
     BLIND_SEED_MIN_Z,
+    BLIND_SEED_PEAKS,
     CARRIED_MAP_PEAKS,
     MIN_REFINE_MODES,
     MIN_SIGNIFICANCE,
@@ -180,7 +182,8 @@ class _Profile:
         noise = null_sd(p, modes)
         raised = []
         for j in range(0, grid.size, BLIND_SEED_EVERY):
-            best = self._map_best_velocity(p, fps, focal_px, float(grid[j]), modes)
+            best = self._map_best_velocity(p, fps, focal_px, float(grid[j]), modes,
+                                           BLIND_SEED_PEAKS)
             if best is None:
                 continue
             val, u = best
@@ -210,16 +213,20 @@ class _Profile:
     @staticmethod
     def _map_tables(p: dict[str, Any]) -> dict[str, Any]:
         """What the velocity map (:meth:`_velocity_map_peaks`) needs that does not depend on
-        the altitude, built once per periodogram (cached in ``p``): its modes (``kappa <=
-        BLIND_MAP_KAPPA``, at least 24), their share tables' Fourier coefficients, the
-        lattice's size and step and each coefficient's place on it.  The step, px/frame, is
-        half the width of a map mode's peak over the velocity, ``(2 pi / T) / kappa_max``."""
+        the altitude, built once per periodogram (cached in ``p``): its modes, their share
+        tables' Fourier coefficients, the lattice's size and step and each coefficient's
+        place on it.  The step, px/frame, is half the width ``(2 pi / T) / kappa`` of the peak
+        over the velocity of the longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at least 24
+        modes); the modes reach ``BLIND_MAP_REACH`` times that top, where the step is a whole
+        width (``constants``)."""
         if "_map" not in p:
             modes = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
             if modes.size < 24:
                 modes = np.argsort(p["kappa"], kind="stable")[:24]
             th, tw = p["tile"]
-            step = 0.5 * (2.0 * np.pi / p["frames"]) / float(p["kappa"][modes].max())
+            top = float(p["kappa"][modes].max())
+            step = 0.5 * (2.0 * np.pi / p["frames"]) / top
+            modes = np.union1d(modes, np.flatnonzero(p["kappa"] <= BLIND_MAP_REACH * top))
             mx, my = max(8, round(tw / step)), max(8, round(th / step))
             n_psi = p["q"].shape[1]
             k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -967,3 +968,80 @@ def test_the_compiled_loop_runs_where_numba_has_nowhere_to_cache_it() -> None:
     assert out.returncode == 0, out.stderr[-2000:]
     # still modes: every share the table's 0.5, no turn
     assert out.stdout.strip() == "[[0.5, 0.5, 0.5, 0.5]] [[0.0, 0.0, 0.0, 0.0]]"
+
+
+def test_the_compiled_pairwise_sum_is_numpys() -> None:
+    """The compiled searches' means over the modes are numpy's sums of a contiguous row bit
+    for bit: every length up to a few blocks, the halves of long rows, both precisions."""
+    from wavealt.altimetry.dispersion import kernel
+
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    rng = np.random.default_rng(5)
+    for dtype in (np.float32, np.float64):
+        zero = dtype(0.0)
+        for n in [*range(300), 1000, 1499, 2001, 4000, 20000]:
+            row = (rng.uniform(0.0, 1.0, n) ** 5).astype(dtype)
+            got = zero + ck.pairwise_sum(row, 0, n, zero)
+            assert got == row.sum(), (dtype, n)
+            if n:
+                assert got / dtype(n) == row.mean(), (dtype, n)
+
+
+@pytest.mark.parametrize("dispersion", ["gravity", "gravity-capillary"])
+def test_the_compiled_compass_search_gives_the_array_forms_result(dispersion: str,
+                                                                  monkeypatch) -> None:
+    """The compiled compass search (:func:`compiled.compass`, which does not score a
+    velocity twice) reaches the array form's velocity and score bit for bit: from the
+    water's velocity and from far off, on every mode and on a subset, at several steps."""
+    from wavealt.altimetry.dispersion import kernel
+
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion=dispersion)
+    p = est._periodogram(frames)
+    u_true = -np.asarray(camera_v) * focal_px / (h * 30.0)
+    sub = np.arange(0, p["kappa"].size, 3)
+    calls = [(lg, u0, modes, step, min_step)
+             for lg in (np.log(h) - 0.3, np.log(h), np.log(h) + 0.5, math.inf)
+             for u0 in (u_true, u_true + np.array([2.0, -1.5]))
+             for modes, step, min_step in ((None, 0.02, 0.0015), (sub, 0.2, 0.005))]
+    assert kernel.use_compiled()
+    compiled = [est._best_velocity(p, 30.0, focal_px, lg, u0, modes, step, min_step)
+                for lg, u0, modes, step, min_step in calls]
+    monkeypatch.setattr(kernel, "_compiled", False)
+    assert kernel.compiled_module() is None
+    arrays = [est._best_velocity(p, 30.0, focal_px, lg, u0, modes, step, min_step)
+              for lg, u0, modes, step, min_step in calls]
+    moved = 0
+    for (val, u), (val_a, u_a), call in zip(compiled, arrays, calls):
+        assert val == val_a
+        np.testing.assert_array_equal(u, u_a)
+        moved += not np.array_equal(u, call[1])
+    assert moved >= len(calls) // 2
+
+
+def test_the_compiled_ring_cost_gives_the_array_forms_bits() -> None:
+    """The compiled ring cost of the blind start's velocity grid equals the array form's
+    (:meth:`_Start._ring_cost` of the wrapped Doppler-free phase steps) bit for bit,
+    phase steps wrapping many times over."""
+    from wavealt.altimetry.dispersion import kernel
+    from wavealt.altimetry.dispersion.spectra import _wrap
+    from wavealt.altimetry.dispersion.start import _Start
+
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    rng = np.random.default_rng(9)
+    for n in (5, 60, 160):
+        psi = rng.uniform(-np.pi, np.pi, n)
+        kx, ky = rng.uniform(-1.5, 1.5, n), rng.uniform(-1.5, 1.5, n)
+        wt = rng.uniform(0.0, 100.0, n)
+        ring = rng.integers(0, 12, n)
+        ring -= ring.min()
+        g = np.arange(-40, 41) * 0.4
+        gx, gy = np.meshgrid(1.3 + g, -0.7 + g, indexing="ij")
+        gx, gy = gx.ravel(), gy.ravel()
+        r = _wrap(psi[None, :] - (gx[:, None] * kx[None, :] + gy[:, None] * ky[None, :]))
+        want = _Start._ring_cost(r, ring, wt, int(ring.max()) + 1)
+        got = ck.ring_costs(psi, kx, ky, wt, ring, int(ring.max()) + 1, gx, gy)
+        np.testing.assert_array_equal(got, want)

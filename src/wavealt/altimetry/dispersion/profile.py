@@ -25,6 +25,7 @@ from wavealt.altimetry.dispersion.constants import (
     MIN_REFINE_MODES,
     MIN_SIGNIFICANCE,
 )
+from wavealt.altimetry.dispersion.kernel import compiled_module
 from wavealt.altimetry.dispersion.search import (
     _most_prominent,
     _parabolic_peak,
@@ -44,7 +45,17 @@ class _Profile:
                        min_step: float = 0.0015) -> tuple[float, np.ndarray]:
         """Image velocity (px/frame) of highest score at altitude ``exp(logh)``: a compass
         (pattern) search from ``u``, the eight neighbours ``step`` away per call (the
-        centre's score is known), halving ``step`` to ``min_step``."""
+        centre's score is known), halving ``step`` to ``min_step``.  The compiled form
+        (:func:`~wavealt.altimetry.dispersion.compiled.compass`) gives the same bits."""
+        ck = compiled_module()
+        if ck is not None:
+            a = self._lookup(p, modes)
+            to_bins = a["pair"].shape[1] / (2.0 * np.pi)
+            om = self._omega_row(p, a, np.array([logh]), fps, focal_px, to_bins)
+            best, ux, uy = ck.compass(np.ascontiguousarray(om), a["kx"], a["ky"], a["pair"],
+                                      float(u[0]), float(u[1]), float(step), float(min_step),
+                                      to_bins)
+            return best, np.array([ux, uy])
         off = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy],
                        dtype=np.float64)
         lg = np.full(off.shape[0], logh)

@@ -69,17 +69,9 @@ class _Search:
         to_bins = n_psi / (2.0 * np.pi)
         logh = np.atleast_1d(logh)
         if self.dispersion == "gravity":
-            # omega = sqrt(g kappa f / h): one outer product instead of a matrix of sqrt
-            scale = np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)
-            om = scale.astype(np.float32)[:, None] * a["sqrt_kappa"][None, :]
+            om = self._gravity_bins(a, logh, fps, focal_px, to_bins)
         elif logh.size and bool(np.all(logh == logh[0])):
-            # the velocity searches ask for one altitude many times: its row of omega is
-            # computed once per mode subset (whose lookup arrays ``p`` holds for its life)
-            rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
-            key = (float(logh[0]), float(fps), float(focal_px))
-            if key not in rows:
-                rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
-            om = rows[key]
+            om = self._omega_row(p, a, logh, fps, focal_px, to_bins)
         else:
             uniq, inv = np.unique(logh, return_inverse=True)
             om = self._omega_bins(a["kappa"], uniq, fps, focal_px, to_bins)
@@ -93,6 +85,30 @@ class _Search:
         explained_shares(np.ascontiguousarray(om), vx, vy, a["kx"], a["ky"], pair,
                          int(p["frames"]) if turns else 0, turns, best, wt)
         return best, (wt if turns else None)
+
+    @staticmethod
+    def _gravity_bins(a: dict[str, np.ndarray], logh: np.ndarray, fps: float,
+                      focal_px: float, to_bins: float) -> np.ndarray:
+        """The gravity waves' phase step ``omega(kappa f / h) / fps`` of the modes of lookup
+        arrays ``a`` (:meth:`_lookup`) at each altitude ``exp(logh)``, in table bins,
+        ``(altitudes, modes)`` float32: ``omega = sqrt(g kappa f / h)``, one outer product
+        instead of a matrix of sqrt."""
+        scale = np.sqrt(GRAVITY_MPS2 * focal_px / np.exp(logh)) * (to_bins / fps)
+        return scale.astype(np.float32)[:, None] * a["sqrt_kappa"][None, :]
+
+    def _omega_row(self, p: dict[str, Any], a: dict[str, np.ndarray], logh: np.ndarray,
+                   fps: float, focal_px: float, to_bins: float) -> np.ndarray:
+        """The one row ``(1, modes)`` of :meth:`_omega_bins` of the modes of lookup arrays
+        ``a`` at the altitude ``exp(logh[0])``.  The velocity searches ask for one altitude
+        many times: each row is computed once per mode subset (whose lookup arrays ``p``
+        holds for its life)."""
+        if self.dispersion == "gravity":
+            return self._gravity_bins(a, logh[:1], fps, focal_px, to_bins)
+        rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
+        key = (float(logh[0]), float(fps), float(focal_px))
+        if key not in rows:
+            rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
+        return rows[key]
 
     def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
                     to_bins: float) -> np.ndarray:

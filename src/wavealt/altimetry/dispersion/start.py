@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from wavealt.altimetry.dispersion.constants import TUKEY_C_RAD
+from wavealt.altimetry.dispersion.kernel import compiled_module
 from wavealt.altimetry.dispersion.spectra import _wrap
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
@@ -55,9 +56,15 @@ class _Start:
             g = np.arange(-n, n + 1) * step
             gx, gy = np.meshgrid(center[0] + g, center[1] + g, indexing="ij")
             ring = ring_all[sel] - ring_all[sel].min()
-            r = _wrap(psi[sel][None, :] - (gx.ravel()[:, None] * kx[sel][None, :]
-                                           + gy.ravel()[:, None] * ky[sel][None, :]))
-            cost = self._ring_cost(r, ring, w0[sel], int(ring.max()) + 1).reshape(gx.shape)
+            ck = compiled_module()
+            if ck is not None:  # the same bits, without the (grid, modes) passes
+                cost = ck.ring_costs(psi[sel], kx[sel], ky[sel], w0[sel], ring,
+                                     int(ring.max()) + 1, gx.ravel(), gy.ravel())
+            else:
+                r = _wrap(psi[sel][None, :] - (gx.ravel()[:, None] * kx[sel][None, :]
+                                               + gy.ravel()[:, None] * ky[sel][None, :]))
+                cost = self._ring_cost(r, ring, w0[sel], int(ring.max()) + 1)
+            cost = cost.reshape(gx.shape)
             # local minima of the grid, best first
             pad = np.pad(cost, 1, constant_values=np.inf)
             nb = np.min(np.stack([pad[1 + dy:1 + dy + cost.shape[0], 1 + dx:1 + dx + cost.shape[1]]

@@ -1045,3 +1045,49 @@ def test_the_compiled_ring_cost_gives_the_array_forms_bits() -> None:
         want = _Start._ring_cost(r, ring, wt, int(ring.max()) + 1)
         got = ck.ring_costs(psi, kx, ky, wt, ring, int(ring.max()) + 1, gx, gy)
         np.testing.assert_array_equal(got, want)
+
+
+def test_the_compiled_fmod_and_wrap_give_numpys_bits() -> None:
+    """The compiled ``fmod(x, 2 pi)`` (a quotient from a product, then an exact remainder)
+    and the wrap to ``[-pi, pi)`` built on it equal numpy's bit for bit, signed zeros
+    included: far and near multiples of 2 pi (one ulp either side), odd multiples of pi,
+    zeros, huge values and non-finite ones."""
+    from wavealt.altimetry.dispersion import kernel
+    from wavealt.altimetry.dispersion.spectra import _wrap
+
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    rng = np.random.default_rng(2)
+    k = np.arange(-300, 301) * (2.0 * np.pi)
+    x = np.concatenate([
+        rng.uniform(-60.0, 60.0, 3000), rng.uniform(-1e6, 1e6, 300), k, k + np.pi,
+        np.nextafter(k, np.inf), np.nextafter(k, -np.inf), np.nextafter(k + np.pi, 0.0),
+        k * (1.0 + rng.uniform(-2e-16, 2e-16, k.size)),
+        [0.0, -0.0, 1e-300, -5e-324, 1e15, -1e20, np.inf, -np.inf, np.nan]])
+    with np.errstate(invalid="ignore"):
+        want_fmod, want_wrap = np.fmod(x, 2.0 * np.pi), _wrap(x)
+    for got, want in (([ck.fmod_2pi(v) for v in x], want_fmod),
+                      ([ck._wrap(v) for v in x], want_wrap)):
+        got = np.array(got)
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+
+
+def test_the_compiled_gauss_newton_terms_give_the_array_forms_start(monkeypatch) -> None:
+    """The blind start's Gauss-Newton (:meth:`_Start._refine`) reaches the same bits with
+    its per-mode terms compiled as in numpy array passes, from several starts."""
+    from wavealt.altimetry.dispersion import kernel
+
+    h = 3.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter()
+    m = est._modes(frames)
+    starts = [(alt, np.array(u)) for alt in (1.0, 3.0, 9.0) for u in ((0.0, 0.0), (1.5, -2.0))]
+    assert kernel.use_compiled()
+    compiled = [est._refine(m, 30.0, focal_px, alt, u) for alt, u in starts]
+    monkeypatch.setattr(kernel, "_compiled", False)
+    arrays = [est._refine(m, 30.0, focal_px, alt, u) for alt, u in starts]
+    for got, want in zip(compiled, arrays):
+        assert got.keys() == want.keys() and "logh" in got
+        for key in got:
+            np.testing.assert_array_equal(got[key], want[key])

@@ -238,7 +238,6 @@ def ring_costs(psi: np.ndarray, kx: np.ndarray, ky: np.ndarray, wt: np.ndarray,
     (:meth:`~wavealt.altimetry.dispersion.start._Start._ring_cost` of the wrapped
     Doppler-free phase steps of modes ``psi, kx, ky``, weights ``wt``, rings ``ring``)."""
     n_modes = psi.size
-    two_pi = 2.0 * np.pi
     wsum = np.zeros(n_rings)
     for m in range(n_modes):
         wsum[ring[m]] += wt[m]
@@ -251,16 +250,7 @@ def ring_costs(psi: np.ndarray, kx: np.ndarray, ky: np.ndarray, wt: np.ndarray,
     for g in range(gx.size):
         s1[:] = 0.0
         for m in range(n_modes):
-            d = gx[g] * kx[m] + gy[g] * ky[m]
-            x = (psi[m] - d) + np.pi
-            # np.remainder(x, 2 pi): fmod, turned positive, +0 for 0
-            mod = np.fmod(x, two_pi)
-            if mod != 0.0:
-                if mod < 0.0:
-                    mod += two_pi
-            else:
-                mod = 0.0
-            a[m] = abs(mod - np.pi)
+            a[m] = abs(_wrap(psi[m] - (gx[g] * kx[m] + gy[g] * ky[m])))
             s1[ring[m]] += a[m] * wt[m]
         for m in range(n_modes):
             mr = s1[ring[m]] / wsum[ring[m]]
@@ -269,3 +259,102 @@ def ring_costs(psi: np.ndarray, kx: np.ndarray, ky: np.ndarray, wt: np.ndarray,
             v[m] = wt[m] * (1.0 if r2 > 1.0 else r2)
         out[g] = 0.0 + pairwise_sum(v, 0, n_modes, 0.0)
     return out
+
+
+@_jit
+def fmod_2pi(x: float) -> float:
+    """``np.fmod(x, 2 pi)``, the same bits, without libm's bit-by-bit division: the
+    quotient ``q`` from a product by ``1 / (2 pi)`` (off by at most one, then corrected) and
+    the remainder ``|x| - q 2 pi`` exact, ``q 2 pi`` split into its rounded value and the
+    rounding error (Dekker's product; ``|x|`` less the rounded value is exact by
+    Sterbenz's lemma), which the exact remainder, a float, is once ``q`` is right."""
+    two_pi = 2.0 * np.pi
+    ax = abs(x)
+    if not ax < 1e15:  # inf, nan, or a quotient past the split: libm
+        return np.fmod(x, two_pi)
+    if ax < two_pi:
+        return x
+    q = np.floor(ax * (1.0 / two_pi))
+    # 2 pi split in two halves of 26 bits (Veltkamp)
+    c = 134217729.0 * two_pi
+    yh = c - (c - two_pi)
+    yl = two_pi - yh
+    for _ in range(3):
+        c = 134217729.0 * q
+        qh = c - (c - q)
+        ql = q - qh
+        p = q * two_pi
+        err = ((qh * yh - p) + qh * yl + ql * yh) + ql * yl  # q 2 pi = p + err exactly
+        r = (ax - p) - err
+        if r < 0.0:
+            q -= 1.0
+        elif r >= two_pi:
+            q += 1.0
+        else:
+            return r if x > 0.0 else -r
+    return np.fmod(x, two_pi)
+
+
+@_jit
+def _wrap(x: float) -> float:
+    """:func:`~wavealt.altimetry.dispersion.spectra._wrap` of one angle: ``np.remainder``
+    (``fmod`` turned positive, +0 for 0) of ``x + pi`` by ``2 pi``, less ``pi``."""
+    two_pi = 2.0 * np.pi
+    mod = fmod_2pi(x + np.pi)
+    if mod != 0.0:
+        if mod < 0.0:
+            mod += two_pi
+    else:
+        mod = 0.0
+    return mod - np.pi
+
+
+@_jit
+def refine_terms(om: np.ndarray, dom: np.ndarray, kappa: np.ndarray, kx: np.ndarray,
+                 ky: np.ndarray, psi: np.ndarray, w0: np.ndarray, ux: float, uy: float,
+                 fps: float, kb: float, tukey_c: float) -> tuple[np.ndarray, ...]:
+    """The per-mode terms of one Gauss-Newton step of
+    :meth:`~wavealt.altimetry.dispersion.start._Start._refine` (``om, dom``: ``omega`` and
+    its derivative by log altitude at the modes): the modes used, the better branch's
+    wrapped residual ``r``, its Tukey weight ``tw`` and sign ``s``, and on the modes used
+    the Jacobian ``jac`` ``(n, 3)``, ``jw = jac * (w0 tw)`` and the residual."""
+    n = kappa.size
+    use = np.empty(n, dtype=np.bool_)
+    r = np.empty(n)
+    tw = np.empty(n)
+    s = np.empty(n)
+    top = 0.9 * np.pi
+    n_use = 0
+    for m in range(n):
+        step = om[m] / fps
+        use[m] = (kappa[m] <= kb) and (step < top)
+        n_use += use[m]
+        dop = kx[m] * ux + ky[m] * uy
+        rp = _wrap(psi[m] - (step + dop))
+        rm = _wrap(psi[m] - (-om[m] / fps + dop))
+        s[m] = 1.0 if abs(rp) <= abs(rm) else -1.0
+        r[m] = rp if s[m] > 0 else rm
+        if abs(r[m]) < tukey_c:
+            q = r[m] / tukey_c
+            t = 1.0 - q * q
+            tw[m] = t * t
+        else:
+            tw[m] = 0.0
+    jac = np.empty((n_use, 3))
+    jw = np.empty((n_use, 3))
+    res = np.empty(n_use)
+    wt = np.empty(n_use)
+    i = 0
+    for m in range(n):
+        if use[m]:
+            w = w0[m] * tw[m]
+            wt[i] = w
+            jac[i, 0] = s[m] * dom[m] / fps
+            jac[i, 1] = kx[m]
+            jac[i, 2] = ky[m]
+            jw[i, 0] = jac[i, 0] * w
+            jw[i, 1] = jac[i, 1] * w
+            jw[i, 2] = jac[i, 2] * w
+            res[i] = r[m]
+            i += 1
+    return use, r, tw, s, jac, jw, res, 0.0 + pairwise_sum(wt, 0, n_use, 0.0)

@@ -118,27 +118,40 @@ class _Start:
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         out: dict[str, Any] = {}
         hess = None
+        ck = compiled_module()
         for kb in bands:
             for _ in range(6):
                 h = math.exp(logh)
                 om, dom = self._omega_and_dlog(kappa, focal_px, h)
-                # keep modes whose own wave phase step does not wrap (unambiguous s)
-                use = (kappa <= kb) & (om / fps < 0.9 * np.pi)
-                if np.count_nonzero(use) < 6:
-                    break
-                dop = kx * u[0] + ky * u[1]
-                rp = _wrap(psi - (om / fps + dop))
-                rm = _wrap(psi - (-om / fps + dop))
-                s = np.where(np.abs(rp) <= np.abs(rm), 1.0, -1.0)
-                r = np.where(s > 0, rp, rm)
-                tw = np.where(np.abs(r) < TUKEY_C_RAD, (1.0 - (r / TUKEY_C_RAD) ** 2) ** 2, 0.0)
-                wt = (w0 * tw)[use]
-                if wt.sum() <= 0:
-                    break
-                jac = np.stack([s * dom / fps, kx, ky], axis=1)[use]
-                jw = jac * wt[:, None]
+                if ck is not None:  # the same bits in one pass over the modes
+                    terms = ck.refine_terms(om, dom, kappa, kx, ky, psi, w0, float(u[0]),
+                                            float(u[1]), float(fps), float(kb), TUKEY_C_RAD)
+                    use = terms[0]
+                    if np.count_nonzero(use) < 6:
+                        break
+                    r, tw, s, jac, jw, r_use, wt_sum = terms[1:]
+                    if wt_sum <= 0:
+                        break
+                else:
+                    # keep modes whose own wave phase step does not wrap (unambiguous s)
+                    use = (kappa <= kb) & (om / fps < 0.9 * np.pi)
+                    if np.count_nonzero(use) < 6:
+                        break
+                    dop = kx * u[0] + ky * u[1]
+                    rp = _wrap(psi - (om / fps + dop))
+                    rm = _wrap(psi - (-om / fps + dop))
+                    s = np.where(np.abs(rp) <= np.abs(rm), 1.0, -1.0)
+                    r = np.where(s > 0, rp, rm)
+                    tw = np.where(np.abs(r) < TUKEY_C_RAD,
+                                  (1.0 - (r / TUKEY_C_RAD) ** 2) ** 2, 0.0)
+                    wt = (w0 * tw)[use]
+                    if wt.sum() <= 0:
+                        break
+                    jac = np.stack([s * dom / fps, kx, ky], axis=1)[use]
+                    jw = jac * wt[:, None]
+                    r_use = r[use]
                 hess = jac.T @ jw + np.diag([1e-9, 1e-9, 1e-9])
-                step = np.linalg.solve(hess, jw.T @ r[use])
+                step = np.linalg.solve(hess, jw.T @ r_use)
                 logh = float(np.clip(logh + step[0], lo, hi))
                 u = u + step[1:]
                 if abs(step[0]) < 1e-5 and np.max(np.abs(step[1:])) < 1e-4:

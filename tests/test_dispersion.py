@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+import scipy.fft
 
 from wavealt.altimetry.dispersion import (
     TRUSTED_QUALITY,
@@ -1091,3 +1092,36 @@ def test_the_compiled_gauss_newton_terms_give_the_array_forms_start(monkeypatch)
         assert got.keys() == want.keys() and "logh" in got
         for key in got:
             np.testing.assert_array_equal(got[key], want[key])
+
+
+def test_the_velocity_maps_window_is_the_whole_fft2s() -> None:
+    """The velocity map transforms only the rows it keeps a second time
+    (:func:`profile._map_window`): the same bits as SciPy's whole ``fft2``, shifted and
+    cut, on lattices of prime and composite sides."""
+    from wavealt.altimetry.dispersion.profile import _map_window
+
+    rng = np.random.default_rng(4)
+    for my, mx in ((457, 457), (229, 300), (64, 96)):
+        c = (rng.normal(size=(my, mx)) + 1j * rng.normal(size=(my, mx))).astype(np.complex64)
+        c[rng.uniform(size=c.shape) < 0.8] = 0.0
+        whole = np.fft.fftshift(scipy.fft.fft2(c, workers=1).real)
+        for r0, r1, c0, c1 in ((0, my, 0, mx), (my // 3, 2 * my // 3, 5, mx - 7)):
+            rows, cols = np.arange(r0, r1), np.arange(c0, c1)
+            np.testing.assert_array_equal(_map_window(c, rows, cols), whole[r0:r1, c0:c1])
+
+
+def test_a_carried_periodogram_reuses_the_mode_series_to_the_same_bits() -> None:
+    """The periodogram with a carried pattern removed takes the mode series of the plain
+    one (``like``) instead of transforming the tiles again: the same table, and the plain
+    one's series are left as they were."""
+    frames, _, _ = _linear_frames(3.0, 6.0, 0.5, 30.0, size=128, frames=20)
+    est = DispersionAltimeter()
+    p = est._periodogram(frames)
+    series = p["_series"].copy()
+    u = np.array([0.7, -0.4])
+    again = est._periodogram(frames, carried=u, like=p)
+    fresh = est._periodogram(frames, carried=u)
+    for key in ("q", "kx", "ky", "kappa"):
+        np.testing.assert_array_equal(again[key], fresh[key])
+    np.testing.assert_array_equal(p["_series"], series)
+    assert again["_series"] is None

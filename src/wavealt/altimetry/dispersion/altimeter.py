@@ -356,7 +356,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         t = int(p["frames"])
         u_c, ratio = self._carried_velocity(p, fps, focal_px)
         if ratio >= CARRIED_MIN_RATIO:
-            pc = self._periodogram(signal, corners=p["corners"], carried=u_c)
+            pc = self._periodogram(signal, corners=p["corners"], carried=u_c, like=p)
             fit = self._fit_blind(pc, fps, focal_px, start["logh"], -start["u"], disk)
             match = CARRIED_MATCH_BINS * (2.0 * math.pi / t) / BLIND_MAP_KAPPA
             if math.hypot(*(fit["u"] - u_c)) <= match:

@@ -10,6 +10,7 @@ form.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -272,8 +273,7 @@ def fmod_2pi(x: float) -> float:
     ax = abs(x)
     if not ax < 1e15:  # inf, nan, or a quotient past the split: libm
         return np.fmod(x, two_pi)
-    if ax < two_pi:
-        return x
+    # no branch on |x| < 2 pi (q = 0 gives |x| itself): the data make it unpredictable
     q = np.floor(ax * (1.0 / two_pi))
     # 2 pi split in two halves of 26 bits (Veltkamp)
     c = 134217729.0 * two_pi
@@ -291,7 +291,7 @@ def fmod_2pi(x: float) -> float:
         elif r >= two_pi:
             q += 1.0
         else:
-            return r if x > 0.0 else -r
+            return math.copysign(r, x)
     return np.fmod(x, two_pi)
 
 
@@ -299,13 +299,11 @@ def fmod_2pi(x: float) -> float:
 def _wrap(x: float) -> float:
     """:func:`~wavealt.altimetry.dispersion.spectra._wrap` of one angle: ``np.remainder``
     (``fmod`` turned positive, +0 for 0) of ``x + pi`` by ``2 pi``, less ``pi``."""
-    two_pi = 2.0 * np.pi
     mod = fmod_2pi(x + np.pi)
-    if mod != 0.0:
-        if mod < 0.0:
-            mod += two_pi
-    else:
-        mod = 0.0
+    # selects, not branches (the sign is unpredictable): mod + 2 pi of a negative mod is
+    # positive, and a zero, either sign, is +0
+    mod = mod + 2.0 * np.pi if mod < 0.0 else mod
+    mod = 0.0 if mod == 0.0 else mod
     return mod - np.pi
 
 

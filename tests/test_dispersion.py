@@ -989,8 +989,10 @@ def test_the_compiled_pairwise_sum_is_numpys() -> None:
                 assert got / dtype(n) == row.mean(), (dtype, n)
 
 
-@pytest.mark.parametrize("dispersion", ["gravity", "gravity-capillary"])
+@pytest.mark.parametrize(("dispersion", "n_psi"),
+                         [("gravity", None), ("gravity-capillary", None), ("gravity", 96)])
 def test_the_compiled_compass_search_gives_the_array_forms_result(dispersion: str,
+                                                                  n_psi: int | None,
                                                                   monkeypatch) -> None:
     """The compiled compass search (:func:`compiled.compass`, which does not score a
     velocity twice) reaches the array form's velocity and score bit for bit: from the
@@ -999,7 +1001,7 @@ def test_the_compiled_compass_search_gives_the_array_forms_result(dispersion: st
 
     h = 3.0
     frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
-    est = DispersionAltimeter(dispersion=dispersion)
+    est = DispersionAltimeter(dispersion=dispersion, n_psi=n_psi)
     p = est._periodogram(frames)
     u_true = -np.asarray(camera_v) * focal_px / (h * 30.0)
     sub = np.arange(0, p["kappa"].size, 3)
@@ -1020,6 +1022,35 @@ def test_the_compiled_compass_search_gives_the_array_forms_result(dispersion: st
         np.testing.assert_array_equal(u, u_a)
         moved += not np.array_equal(u, call[1])
     assert moved >= len(calls) // 2
+
+
+@pytest.mark.parametrize("n_psi", [64, 96])
+def test_the_compiled_two_pass_shares_give_the_loops_bits(n_psi: int) -> None:
+    """The compass search's two-pass scoring (int32 table positions, then the gathers)
+    equals the score's loop bit for bit, and hands back positions beyond int32."""
+    from wavealt.altimetry.dispersion import kernel
+
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    rng = np.random.default_rng(12)
+    n_cand, n_modes, f32 = 8, 300, np.float32
+    om = (rng.uniform(-3.0, 3.0, (1, n_modes)) * n_psi).astype(f32)
+    vx, vy = (rng.normal(0.0, 40.0, n_cand).astype(f32) for _ in range(2))
+    kx, ky = (rng.uniform(-1.5, 1.5, n_modes).astype(f32) for _ in range(2))
+    q = rng.uniform(0.0, 1.0, (n_modes, n_psi)).astype(f32)
+    q[:10] = 0.5
+    pair = np.empty(q.shape, dtype=np.complex64)
+    pair.real = q
+    pair.imag = np.roll(q, -1, axis=1) - q
+    want = np.empty((n_cand, n_modes), dtype=f32)
+    ck.shares_loop(om, vx, vy, kx, ky, pair, 0, False, want, np.empty((0, 0), f32))
+    got = np.full((n_cand, n_modes), np.nan, dtype=f32)
+    work = (np.empty(n_modes, np.int32), np.empty(n_modes, np.int32),
+            np.empty(n_modes, f32), np.empty(n_modes, f32))
+    assert ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work)
+    np.testing.assert_array_equal(got, want)
+    vx[3] = 1e12
+    assert not ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work)
 
 
 def test_the_compiled_ring_cost_gives_the_array_forms_bits() -> None:

@@ -414,6 +414,7 @@ def ring_costs(psi: np.ndarray, kx: np.ndarray, ky: np.ndarray, wt: np.ndarray,
     x = np.empty(n_modes)
     a = np.empty(n_modes)
     s1 = np.empty(n_rings)
+    mr = np.empty(n_modes)
     v = np.empty(n_modes)
     frames = np.empty((3, 64), dtype=np.int64)
     left = np.zeros(64)
@@ -429,9 +430,12 @@ def ring_costs(psi: np.ndarray, kx: np.ndarray, ky: np.ndarray, wt: np.ndarray,
         s1[:] = 0.0
         for m in range(n_modes):  # bincount's order
             s1[ring[m]] += a[m] * wt[m]
+        for k in range(n_rings):  # each ring's mean |r|
+            s1[k] /= wsum[k]
         for m in range(n_modes):
-            mr = s1[ring[m]] / wsum[ring[m]]
-            rel = (a[m] - mr) / (mr + 0.05)
+            mr[m] = s1[ring[m]]
+        for m in range(n_modes):  # vectorised
+            rel = (a[m] - mr[m]) / (mr[m] + 0.05)
             r2 = rel * rel
             v[m] = wt[m] * (1.0 if r2 > 1.0 else r2)
         out[g] = 0.0 + _pairwise(v, 0, n_modes, 0.0, frames, left)

@@ -14,6 +14,11 @@ from wavealt.altimetry.dispersion.spectra import _wrap
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
 
+# the Gauss-Newton normal matrix's floor (_refine)
+_HESS_FLOOR = np.diag([1e-9, 1e-9, 1e-9])
+_HESS_FLOOR.flags.writeable = False
+
+
 class _Start:
     """The blind fit's start of :class:`DispersionAltimeter`: velocity candidates and a
     per-mode phase-step fit of ``(log altitude, u)`` (uses ``max_shift_px``,
@@ -126,10 +131,9 @@ class _Start:
                 if ck is not None:  # the same bits in one pass over the modes
                     terms = ck.refine_terms(om, dom, kappa, kx, ky, psi, w0, float(u[0]),
                                             float(u[1]), float(fps), float(kb), TUKEY_C_RAD)
-                    use = terms[0]
-                    if np.count_nonzero(use) < 6:
+                    use, r, tw, s, jac, jw, r_use, wt_sum = terms
+                    if r_use.size < 6:  # the modes used
                         break
-                    r, tw, s, jac, jw, r_use, wt_sum = terms[1:]
                     if wt_sum <= 0:
                         break
                 else:
@@ -150,11 +154,12 @@ class _Start:
                     jac = np.stack([s * dom / fps, kx, ky], axis=1)[use]
                     jw = jac * wt[:, None]
                     r_use = r[use]
-                hess = jac.T @ jw + np.diag([1e-9, 1e-9, 1e-9])
+                hess = jac.T @ jw + _HESS_FLOOR
                 step = np.linalg.solve(hess, jw.T @ r_use)
-                logh = float(np.clip(logh + step[0], lo, hi))
+                # np.clip's minimum(maximum()) on floats, NaN kept
+                logh = min(max(float(logh + step[0]), lo), hi)
                 u = u + step[1:]
-                if abs(step[0]) < 1e-5 and np.max(np.abs(step[1:])) < 1e-4:
+                if abs(step[0]) < 1e-5 and abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
                     break
             if hess is not None:  # else no band has had six usable modes yet
                 out = {"logh": logh, "u": u.copy(), "use": use, "r": r, "tw": tw,

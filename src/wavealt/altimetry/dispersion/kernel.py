@@ -3,12 +3,15 @@ periodogram's phase-step table by linear interpolation, the better of the two di
 travel (:meth:`~wavealt.altimetry.dispersion.search._Search._branch_values`).
 
 Two forms give the same float32 bits (``tests/test_dispersion.py``): numpy array passes, and
-the same loop compiled by numba, one fused pass per (candidate, mode), in numpy's order of
-operations and without fused multiply-adds.  The compiled form is 2-3x faster; importing
-numba costs about 0.25 s, so it is loaded (:func:`use_compiled`) where many calls follow,
-the blind and prior searches, and not for the few calls of an exact fit, whose command line
-starts in 0.4 s.  It is compiled once and cached on disk (numba's ``cache=True``); without
-numba the array form serves.
+the same loop compiled by numba (:mod:`.compiled`), one fused pass per (candidate, mode), in
+numpy's order of operations and without fused multiply-adds.  The compiled form is 2-3x
+faster; importing numba costs about 0.25 s, so it is loaded (:func:`use_compiled`) where
+many calls follow, the blind and prior searches, and not for the few calls of an exact fit,
+whose command line starts in 0.4 s.  It is compiled once and cached on disk (numba's
+``cache=True``); without numba the array form serves.  The same module holds the compiled
+forms of the blind searches' other inner loops (the compass search of the velocity, the
+start's velocity grid and Gauss-Newton terms), which their callers take where
+:func:`compiled_module` offers them, each the same bits as the caller's array form.
 """
 
 from __future__ import annotations

@@ -1027,7 +1027,8 @@ def test_the_compiled_compass_search_gives_the_array_forms_result(dispersion: st
 @pytest.mark.parametrize("n_psi", [64, 96])
 def test_the_compiled_two_pass_shares_give_the_loops_bits(n_psi: int) -> None:
     """The compass search's two-pass scoring (int32 table positions, then the gathers)
-    equals the score's loop bit for bit, and hands back positions beyond int32."""
+    equals the score's loop bit for bit, and hands back candidates whose positions might
+    lie beyond int32."""
     from wavealt.altimetry.dispersion import kernel
 
     assert kernel.use_compiled()
@@ -1047,10 +1048,13 @@ def test_the_compiled_two_pass_shares_give_the_loops_bits(n_psi: int) -> None:
     got = np.full((n_cand, n_modes), np.nan, dtype=f32)
     work = (np.empty(n_modes, np.int32), np.empty(n_modes, np.int32),
             np.empty(n_modes, f32), np.empty(n_modes, f32))
-    assert ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work)
+    bounds = (float(np.abs(om).max()), float(max(np.abs(kx).max(), np.abs(ky).max())))
+    assert ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work, *bounds)
     np.testing.assert_array_equal(got, want)
+    assert ck._abs_bound(om) == bounds[0]
+    assert ck._abs_bound(np.array([1.0, np.nan], f32)) == np.inf
     vx[3] = 1e12
-    assert not ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work)
+    assert not ck._shares_rows(om, vx, vy, kx, ky, pair, got, *work, *bounds)
 
 
 def test_the_compiled_ring_cost_gives_the_array_forms_bits() -> None:

@@ -199,21 +199,24 @@ def _shares_by_mode(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarr
 @_jit
 def _shares_rows(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
                  ky: np.ndarray, pair: np.ndarray, out: np.ndarray, j1: np.ndarray,
-                 j2: np.ndarray, fr1: np.ndarray, fr2: np.ndarray) -> bool:
+                 j2: np.ndarray, fr1: np.ndarray, fr2: np.ndarray, om_max: float,
+                 k_max: float) -> bool:
     """:func:`_shares_by_mode`, candidate by candidate in two passes over the modes: the
     table positions (``j1, j2`` int32, ``fr1, fr2``: workspaces of the modes' length),
-    which vectorises, then the gathers.  False, ``out`` unfinished, where a position lies
-    beyond int32 (the caller takes :func:`_shares_by_mode`)."""
+    which vectorises, then the gathers.  ``om_max``, ``k_max``: bounds of ``|om|`` and of
+    ``|kx|, |ky|`` (inf where not finite).  False, ``out`` unfinished, where a candidate's
+    positions might lie beyond int32 (the caller takes :func:`_shares_by_mode`)."""
     n_cand, n_modes = out.shape
     n_psi = pair.shape[1]
     pow2 = n_psi & (n_psi - 1) == 0
     mask = np.int32(n_psi - 1)
-    span = np.float32(2.0**30)
     o_ = om[0]
     for c in range(n_cand):
         ux = vx[c]
         uy = vy[c]
-        ok = True
+        # |position| <= |om| + |u| |k|: checked once, so that the loop has no test
+        if not om_max + (abs(ux) + abs(uy)) * k_max < 2.0**29:
+            return False
         for m in range(n_modes):
             d = ux * kx[m]
             d += uy * ky[m]
@@ -224,15 +227,12 @@ def _shares_rows(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
             f2 = np.floor(pos2)
             fr1[m] = pos1 - f1
             fr2[m] = pos2 - f2
-            ok &= (abs(f1) < span) & (abs(f2) < span)
             if pow2:
                 j1[m] = np.int32(f1) & mask
                 j2[m] = np.int32(f2) & mask
             else:
                 j1[m] = np.int32(f1) % n_psi
                 j2[m] = np.int32(f2) % n_psi
-        if not ok:
-            return False
         row = out[c]
         for m in range(n_modes):
             g1 = pair[m, j1[m]]
@@ -243,6 +243,18 @@ def _shares_rows(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
             v2 += g2.real
             row[m] = v2 if v2 > v1 else v1
     return True
+
+
+@_jit
+def _abs_bound(arr: np.ndarray) -> float:
+    """The largest ``|x|`` of ``arr``; inf where one is not finite."""
+    big = 0.0
+    finite = True
+    for x in arr.ravel():
+        a = abs(float(x))
+        finite &= a < np.inf
+        big = max(big, a)
+    return big if finite else np.inf
 
 
 @_jit
@@ -266,6 +278,8 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
     j2 = np.empty(n, dtype=np.int32)
     fr1 = np.empty(n, dtype=np.float32)
     fr2 = np.empty(n, dtype=np.float32)
+    om_max = _abs_bound(om)
+    k_max = max(_abs_bound(kx), _abs_bound(ky))
     vx = np.empty(8, dtype=np.float32)
     vy = np.empty(8, dtype=np.float32)
     seen_x = np.empty(64, dtype=np.float32)
@@ -278,7 +292,8 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
     left = np.full(64, zero)
     vx[0] = np.float32(ux * to_bins)
     vy[0] = np.float32(uy * to_bins)
-    if not _shares_rows(om, vx[:1], vy[:1], kx, ky, pair, vals[:1], j1, j2, fr1, fr2):
+    if not _shares_rows(om, vx[:1], vy[:1], kx, ky, pair, vals[:1], j1, j2, fr1, fr2,
+                        om_max, k_max):
         _shares_by_mode(om, vx[:1], vy[:1], kx, ky, pair, vals[:1])
     best = (zero + _pairwise(vals[0], 0, n, zero, frames, left)) / count
     seen_x[0], seen_y[0], seen_v[0] = vx[0], vy[0], best
@@ -302,7 +317,8 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
             if known[j] < 0:
                 vx[k], vy[k] = bx, by
                 k += 1
-        if not _shares_rows(om, vx[:k], vy[:k], kx, ky, pair, vals[:k], j1, j2, fr1, fr2):
+        if not _shares_rows(om, vx[:k], vy[:k], kx, ky, pair, vals[:k], j1, j2, fr1, fr2,
+                            om_max, k_max):
             _shares_by_mode(om, vx[:k], vy[:k], kx, ky, pair, vals[:k])
         i = 0
         for j in range(8):

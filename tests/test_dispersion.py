@@ -1160,3 +1160,35 @@ def test_a_carried_periodogram_reuses_the_mode_series_to_the_same_bits() -> None
         np.testing.assert_array_equal(again[key], fresh[key])
     np.testing.assert_array_equal(p["_series"], series)
     assert again["_series"] is None
+
+
+def test_the_compiled_map_sums_give_the_array_forms_bits(monkeypatch) -> None:
+    """The velocity map's lattice sums (:func:`compiled.scatter_products`) equal numpy's
+    complex product and two bincounts bit for bit, and so do the map's peaks."""
+    from wavealt.altimetry.dispersion import kernel
+
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    rng = np.random.default_rng(6)
+    n, size = 5000, 700
+    coef = (rng.normal(size=n) + 1j * rng.normal(size=n)).astype(np.complex64)
+    coef[:50] = 0.0
+    turn = 2.0 * np.cos(rng.uniform(0.0, 50.0, n))
+    idx = rng.integers(0, size, n)
+    got = np.empty(size, dtype=np.complex64)
+    ck.scatter_products(coef, turn, idx, got)
+    prod = coef * turn
+    want = np.empty(size, dtype=np.complex64)
+    want.real = np.bincount(idx, prod.real, size)
+    want.imag = np.bincount(idx, prod.imag, size)
+    np.testing.assert_array_equal(got, want)
+    frames, focal_px, _ = _linear_frames(3.0, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter()
+    p = est._periodogram(frames)
+    peaks = [est._velocity_map_peaks(p, 30.0, focal_px, lg, 5) for lg in (0.5, 1.5, math.inf)]
+    monkeypatch.setattr(kernel, "_compiled", False)
+    for lg, want_peaks in zip((0.5, 1.5, math.inf), peaks):
+        got_peaks = est._velocity_map_peaks(p, 30.0, focal_px, lg, 5)
+        assert len(got_peaks) == len(want_peaks) > 0
+        for a, b in zip(got_peaks, want_peaks):
+            np.testing.assert_array_equal(a, b)

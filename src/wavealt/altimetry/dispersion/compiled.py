@@ -520,3 +520,23 @@ def refine_terms(om: np.ndarray, dom: np.ndarray, kappa: np.ndarray, kx: np.ndar
         n_use += 1 if use[m] else 0
     jac, jw, res = jac[:n_use], jw[:n_use], res[:n_use]
     return use, r, tw, s, jac, jw, res, 0.0 + pairwise_sum(wt, 0, n_use, 0.0)
+
+
+@_jit
+def scatter_products(coef: np.ndarray, turn: np.ndarray, idx: np.ndarray,
+                     out: np.ndarray) -> None:
+    """``out`` (complex64), in place: the sums at ``idx`` of ``coef * turn`` (complex64
+    times float64), real and imaginary parts apart, in index order from +0: ``np.bincount``
+    of numpy's complex128 product, whose parts are the rounded ``re * turn`` and
+    ``im * turn`` (the product's terms in 0 change at most a zero's sign, and a sum from
+    +0 drops that), each rounded to float32 at the end."""
+    n = out.size
+    re = np.zeros(n)
+    im = np.zeros(n)
+    for i in range(idx.size):
+        z = coef[i]
+        t = turn[i]
+        re[idx[i]] += np.float64(z.real) * t
+        im[idx[i]] += np.float64(z.imag) * t
+    for k in range(n):
+        out[k] = np.complex64(complex(np.float32(re[k]), np.float32(im[k])))

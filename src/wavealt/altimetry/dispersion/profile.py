@@ -275,11 +275,16 @@ class _Profile:
         mx, my = m["mx"], m["my"]
         om = self.omega(m["kappa"] * focal_px / math.exp(logh)) / fps  # rad/frame
         # both directions: e^{+i k om} + e^{-i k om}
-        coef = m["coef"] * (2.0 * np.cos(np.outer(om, m["k"])))
+        turn = 2.0 * np.cos(np.outer(om, m["k"]))
         idx = m["idx"]
         c = np.empty(mx * my, dtype=np.complex64)
-        c.real = np.bincount(idx, coef.real.ravel(), mx * my)
-        c.imag = np.bincount(idx, coef.imag.ravel(), mx * my)
+        ck = compiled_module()
+        if ck is not None:  # the same sums in one pass
+            ck.scatter_products(m["coef"].ravel(), turn.ravel(), idx, c)
+        else:
+            coef = m["coef"] * turn
+            c.real = np.bincount(idx, coef.real.ravel(), mx * my)
+            c.imag = np.bincount(idx, coef.imag.ravel(), mx * my)
         # score(u = (l_x w / mx, l_y h / my)) = sum_K c[K] e^{-2 pi i K . l / M}
         uy = np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th))
         ux = np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))

@@ -22,27 +22,36 @@ import numpy as np
 
 _compiled: Any = None
 _module: Any = None
+_start_module: Any = None
 
 
 def use_compiled() -> bool:
-    """Load the compiled forms (:mod:`.compiled`) for the calls that follow in this process
-    (once); False where numba cannot be imported."""
-    global _compiled, _module
+    """Load the compiled forms (:mod:`.compiled`, :mod:`.compiled_start`) for the calls that
+    follow in this process (once); False where numba cannot be imported."""
+    global _compiled, _module, _start_module
     if _compiled is None:
         try:
-            from wavealt.altimetry.dispersion import compiled
+            import wavealt.altimetry.dispersion.compiled as compiled
+            import wavealt.altimetry.dispersion.compiled_start as compiled_start
         except ImportError:
             _compiled = False
         else:
-            _module, _compiled = compiled, compiled.shares_loop
+            _module, _start_module = compiled, compiled_start
+            _compiled = compiled.shares_loop
     return _compiled is not False
 
 
 def compiled_module() -> Any:
-    """The compiled forms (:mod:`.compiled`) once :func:`use_compiled` has loaded them (and
-    the score's loop is not switched to its array form), else None: the caller's array
-    form serves."""
+    """The compiled forms of the searches (:mod:`.compiled`) once :func:`use_compiled` has
+    loaded them (and the score's loop is not switched to its array form), else None: the
+    caller's array form serves."""
     return _module if _compiled else None
+
+
+def compiled_start_module() -> Any:
+    """The compiled forms of the blind start (:mod:`.compiled_start`), as
+    :func:`compiled_module`."""
+    return _start_module if _compiled else None
 
 
 def explained_shares(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,

@@ -9,10 +9,9 @@ from typing import Any
 import numpy as np
 
 from wavealt.altimetry.dispersion.constants import TUKEY_C_RAD
-from wavealt.altimetry.dispersion.kernel import compiled_module
+from wavealt.altimetry.dispersion.kernel import compiled_start_module
 from wavealt.altimetry.dispersion.spectra import _wrap
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
-
 
 # the Gauss-Newton normal matrix's floor (_refine)
 _HESS_FLOOR = np.diag([1e-9, 1e-9, 1e-9])
@@ -61,7 +60,7 @@ class _Start:
             g = np.arange(-n, n + 1) * step
             gx, gy = np.meshgrid(center[0] + g, center[1] + g, indexing="ij")
             ring = ring_all[sel] - ring_all[sel].min()
-            ck = compiled_module()
+            ck = compiled_start_module()
             if ck is not None:  # the same bits, without the (grid, modes) passes
                 cost = ck.ring_costs(psi[sel], kx[sel], ky[sel], w0[sel], ring,
                                      int(ring.max()) + 1, gx.ravel(), gy.ravel())
@@ -123,7 +122,7 @@ class _Start:
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         out: dict[str, Any] = {}
         hess = None
-        ck = compiled_module()
+        ck = compiled_start_module()
         for kb in bands:
             for _ in range(6):
                 h = math.exp(logh)

@@ -103,6 +103,33 @@ def _pairwise(a: np.ndarray, lo: int, n: int, zero: Any, frames: np.ndarray,
 
 
 @_jit
+def _two_branches(o: Any, d: Any, pair: np.ndarray, m: int, pow2: bool, mask: int,
+                  n_psi: int) -> tuple[Any, Any, int, int, Any, Any]:
+    """Mode ``m``'s table values at the two directions' phase steps ``o - d`` and
+    ``-(o + d)`` (table bins; linear interpolation from ``pair``, :func:`shares_loop`), and
+    their table positions and fractions: ``(v1, v2, j1, j2, frac1, frac2)``."""
+    pos1 = o - d
+    pos2 = -(o + d)
+    f1 = np.floor(pos1)
+    f2 = np.floor(pos2)
+    frac1 = pos1 - f1
+    frac2 = pos2 - f2
+    if pow2:
+        j1 = np.int64(f1) & mask
+        j2 = np.int64(f2) & mask
+    else:
+        j1 = np.int64(f1) % n_psi
+        j2 = np.int64(f2) % n_psi
+    g1 = pair[m, j1]
+    g2 = pair[m, j2]
+    v1 = g1.imag * frac1
+    v1 += g1.real
+    v2 = g2.imag * frac2
+    v2 += g2.real
+    return v1, v2, j1, j2, frac1, frac2
+
+
+@_jit
 def shares_loop(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
                 ky: np.ndarray, pair: np.ndarray, frames: int, turns: bool,
                 out: np.ndarray, wt: np.ndarray) -> None:
@@ -130,25 +157,8 @@ def shares_loop(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
         for m in range(n_modes):
             d = ux * kx[m]
             d += uy * ky[m]
-            o = om[0 if one_row else c, m]
-            pos1 = o - d
-            pos2 = -(o + d)
-            f1 = np.floor(pos1)
-            f2 = np.floor(pos2)
-            frac1 = pos1 - f1
-            frac2 = pos2 - f2
-            if pow2:
-                j1 = np.int64(f1) & mask
-                j2 = np.int64(f2) & mask
-            else:
-                j1 = np.int64(f1) % n_psi
-                j2 = np.int64(f2) % n_psi
-            g1 = pair[m, j1]
-            g2 = pair[m, j2]
-            v1 = g1.imag * frac1
-            v1 += g1.real
-            v2 = g2.imag * frac2
-            v2 += g2.real
+            v1, v2, j1, j2, frac1, frac2 = _two_branches(om[0 if one_row else c, m], d,
+                                                         pair, m, pow2, mask, n_psi)
             second = v2 > v1
             out[c, m] = v2 if second else v1
             if turns:
@@ -175,24 +185,7 @@ def _shares_by_mode(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarr
         for c in range(n_cand):
             d = vx[c] * kxm
             d += vy[c] * kym
-            pos1 = o - d
-            pos2 = -(o + d)
-            f1 = np.floor(pos1)
-            f2 = np.floor(pos2)
-            frac1 = pos1 - f1
-            frac2 = pos2 - f2
-            if pow2:
-                j1 = np.int64(f1) & mask
-                j2 = np.int64(f2) & mask
-            else:
-                j1 = np.int64(f1) % n_psi
-                j2 = np.int64(f2) % n_psi
-            g1 = pair[m, j1]
-            g2 = pair[m, j2]
-            v1 = g1.imag * frac1
-            v1 += g1.real
-            v2 = g2.imag * frac2
-            v2 += g2.real
+            v1, v2 = _two_branches(o, d, pair, m, pow2, mask, n_psi)[:2]
             out[c, m] = v2 if v2 > v1 else v1
 
 

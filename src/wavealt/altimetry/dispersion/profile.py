@@ -238,7 +238,9 @@ class _Profile:
             top = float(p["kappa"][modes].max())
             step = 0.5 * (2.0 * np.pi / p["frames"]) / top
             modes = np.union1d(modes, np.flatnonzero(p["kappa"] <= BLIND_MAP_REACH * top))
-            mx, my = max(8, round(tw / step)), max(8, round(th / step))
+            # a fast FFT length at or above the lattice the step asks for (its spacing a
+            # little finer): a prime length costs several times as much
+            mx, my = (scipy.fft.next_fast_len(max(8, round(n / step))) for n in (tw, th))
             n_psi = p["q"].shape[1]
             k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
             a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)

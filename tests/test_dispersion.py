@@ -1163,25 +1163,41 @@ def test_a_carried_periodogram_reuses_the_mode_series_to_the_same_bits() -> None
 
 
 def test_the_compiled_map_sums_give_the_array_forms_bits(monkeypatch) -> None:
-    """The velocity map's lattice sums (:func:`compiled.scatter_products`) equal numpy's
-    complex product and two bincounts bit for bit, and so do the map's peaks."""
+    """The velocity map's lattice sums (:func:`compiled.scatter_products`, over the occupied
+    cells and one cosine row per distinct wavenumber) equal numpy's complex product and two
+    bincounts bit for bit, its local maxima (:func:`compiled.map_peaks`) numpy's shifted
+    maxima and stable sort, ties and non-finite points included, and so do the map's
+    peaks."""
     from wavealt.altimetry.dispersion import kernel
+    from wavealt.altimetry.dispersion.profile import _map_peaks_arrays
 
     assert kernel.use_compiled()
     ck = kernel.compiled_module()
     rng = np.random.default_rng(6)
-    n, size = 5000, 700
-    coef = (rng.normal(size=n) + 1j * rng.normal(size=n)).astype(np.complex64)
-    coef[:50] = 0.0
-    turn = 2.0 * np.cos(rng.uniform(0.0, 50.0, n))
-    idx = rng.integers(0, size, n)
-    got = np.empty(size, dtype=np.complex64)
-    ck.scatter_products(coef, turn, idx, got)
-    prod = coef * turn
+    n_modes, n_psi, n_rows, size = 40, 64, 11, 3000
+    coef = (rng.normal(size=(n_modes, n_psi))
+            + 1j * rng.normal(size=(n_modes, n_psi))).astype(np.complex64)
+    coef[:2] = 0.0
+    cos = np.cos(rng.uniform(0.0, 50.0, (n_rows, n_psi)))
+    rows = rng.integers(0, n_rows, n_modes)
+    idx = rng.integers(0, size, n_modes * n_psi)
+    cells, slot = np.unique(idx, return_inverse=True)
+    got = np.zeros(size, dtype=np.complex64)
+    ck.scatter_products(coef, cos, rows, slot, cells, got)
+    prod = coef * (2.0 * cos)[rows]
     want = np.empty(size, dtype=np.complex64)
-    want.real = np.bincount(idx, prod.real, size)
-    want.imag = np.bincount(idx, prod.imag, size)
+    want.real = np.bincount(idx, prod.real.ravel(), size)
+    want.imag = np.bincount(idx, prod.imag.ravel(), size)
     np.testing.assert_array_equal(got, want)
+    for shape in ((1, 1), (1, 7), (9, 1), (13, 17)):
+        for n_keep in (0, 1, 3, 8, 500):
+            score = rng.integers(0, 4, shape).astype(np.float64)  # plateaus and ties
+            score[rng.uniform(size=shape) < 0.1] = -np.inf
+            score[rng.uniform(size=shape) < 0.05] = np.inf
+            score[rng.uniform(size=shape) < 0.05] = np.nan
+            score[rng.uniform(size=shape) < 0.1] = -0.0
+            np.testing.assert_array_equal(ck.map_peaks(score, n_keep),
+                                          _map_peaks_arrays(score, n_keep))
     frames, focal_px, _ = _linear_frames(3.0, 6.0, 0.5, 30.0, size=128, frames=30)
     est = DispersionAltimeter()
     p = est._periodogram(frames)

@@ -342,20 +342,66 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
 
 
 @_jit
-def scatter_products(coef: np.ndarray, turn: np.ndarray, idx: np.ndarray,
-                     out: np.ndarray) -> None:
-    """``out`` (complex64), in place: the sums at ``idx`` of ``coef * turn`` (complex64
-    times float64), real and imaginary parts apart, in index order from +0: ``np.bincount``
-    of numpy's complex128 product, whose parts are the rounded ``re * turn`` and
-    ``im * turn`` (the product's terms in 0 change at most a zero's sign, and a sum from
-    +0 drops that), each rounded to float32 at the end."""
-    n = out.size
-    re = np.zeros(n)
-    im = np.zeros(n)
-    for i in range(idx.size):
-        z = coef[i]
-        t = turn[i]
-        re[idx[i]] += np.float64(z.real) * t
-        im[idx[i]] += np.float64(z.imag) * t
-    for k in range(n):
-        out[k] = np.complex64(complex(np.float32(re[k]), np.float32(im[k])))
+def scatter_products(coef: np.ndarray, cos: np.ndarray, rows: np.ndarray, slot: np.ndarray,
+                     cells: np.ndarray, out: np.ndarray) -> None:
+    """``out`` (complex64, zeros on entry), in place: at each lattice cell, the sum of the
+    products ``coef[m, j] * (2 cos[rows[m], j])`` (complex64 times float64) of the
+    coefficients that fall on it (``cells[slot[m n_psi + j]]``), real and imaginary parts
+    apart, in index order from +0: ``np.bincount`` of numpy's complex128 product, whose
+    parts are the rounded ``re * turn`` and ``im * turn`` (the product's terms in 0 change
+    at most a zero's sign, and a sum from +0 drops that), each rounded to float32 at the
+    end.  The sums run over the occupied cells alone (``slot``, ``cells``: ``np.unique`` of
+    the cell indices), and ``cos`` holds one row per distinct wavenumber (``rows``)."""
+    n_psi = cos.shape[1]
+    re = np.zeros(cells.size)
+    im = np.zeros(cells.size)
+    for m in range(rows.size):
+        r = rows[m]
+        for j in range(n_psi):
+            i = m * n_psi + j
+            z = coef[m, j]
+            t = 2.0 * cos[r, j]
+            re[slot[i]] += np.float64(z.real) * t
+            im[slot[i]] += np.float64(z.imag) * t
+    for s in range(cells.size):
+        out[cells[s]] = np.complex64(complex(np.float32(re[s]), np.float32(im[s])))
+
+
+@_jit
+def map_peaks(score: np.ndarray, n_keep: int) -> np.ndarray:
+    """The flat indices of the ``n_keep`` highest local maxima of ``score`` (2-D float64):
+    finite points at least as high as each of their eight neighbours (a NaN neighbour
+    forbids one), highest first, ties in index order, as
+    :func:`~wavealt.altimetry.dispersion.profile._map_peaks_arrays`."""
+    ny, nx = score.shape
+    top = np.empty(max(n_keep, 0), dtype=np.int64)
+    top_v = np.empty(max(n_keep, 0))
+    n = 0
+    for y in range(ny):
+        # a neighbour beyond the edge is the point itself, which a finite point is at
+        # least as high as (numpy's pad of -inf); no branch per neighbour
+        up = score[max(y - 1, 0)]
+        mid = score[y]
+        down = score[min(y + 1, ny - 1)]
+        for x in range(nx):
+            xl = max(x - 1, 0)
+            xr = min(x + 1, nx - 1)
+            s = mid[x]
+            peak = ((s >= up[xl]) & (s >= up[x]) & (s >= up[xr]) & (s >= mid[xl])
+                    & (s >= mid[xr]) & (s >= down[xl]) & (s >= down[x]) & (s >= down[xr])
+                    & (abs(s) < np.inf))
+            if not peak:
+                continue
+            # insertion after every kept peak at least as high (a stable sort)
+            k = n
+            while k > 0 and top_v[k - 1] < s:
+                k -= 1
+            if k >= n_keep:
+                continue
+            for i in range(min(n, n_keep - 1), k, -1):
+                top[i] = top[i - 1]
+                top_v[i] = top_v[i - 1]
+            top[k] = y * nx + x
+            top_v[k] = s
+            n = min(n + 1, n_keep)
+    return top[:n]

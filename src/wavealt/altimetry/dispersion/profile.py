@@ -225,11 +225,14 @@ class _Profile:
     def _map_tables(p: dict[str, Any]) -> dict[str, Any]:
         """What the velocity map (:meth:`_velocity_map_peaks`) needs that does not depend on
         the altitude, built once per periodogram (cached in ``p``): its modes, their share
-        tables' Fourier coefficients, the lattice's size and step and each coefficient's
-        place on it.  The step, px/frame, is half the width ``(2 pi / T) / kappa`` of the peak
-        over the velocity of the longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at least 24
-        modes); the modes reach ``BLIND_MAP_REACH`` times that top, where the step is a whole
-        width (``constants``)."""
+        tables' Fourier coefficients, the lattice's size, step and velocities and each
+        coefficient's place on it (and the occupied places, a quarter of the lattice), and
+        the modes' distinct wavenumbers (a mode's phase step depends on ``|kappa|`` alone,
+        and a square tile's modes come in fours of one ``|kappa|``).  The step, px/frame,
+        is half the width ``(2 pi / T) / kappa`` of the peak over the velocity of the
+        longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at least 24 modes); the modes
+        reach ``BLIND_MAP_REACH`` times that top, where the step is a whole width
+        (``constants``)."""
         if "_map" not in p:
             modes = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
             if modes.size < 24:
@@ -245,12 +248,18 @@ class _Profile:
             k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
             a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
             b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
+            idx = (((k[None, :] * b[:, None]) % my) * mx
+                   + (k[None, :] * a[:, None]) % mx).ravel()
+            kappa, rows = np.unique(p["kappa"][modes], return_inverse=True)
+            cells, slot = np.unique(idx, return_inverse=True)
             p["_map"] = {
-                "step": step, "mx": mx, "my": my, "k": k, "kappa": p["kappa"][modes],
+                "step": step, "mx": mx, "my": my, "k": k, "kappa": kappa, "rows": rows,
                 # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
                 "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1),
-                "idx": (((k[None, :] * b[:, None]) % my) * mx
-                        + (k[None, :] * a[:, None]) % mx).ravel()}
+                "idx": idx, "cells": cells, "slot": slot,
+                # the lattice's velocities, px/frame, in fftshift's order
+                "uy": np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th)),
+                "ux": np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))}
         return p["_map"]
 
     def _map_step(self, p: dict[str, Any]) -> float:
@@ -272,24 +281,21 @@ class _Profile:
         maps a pattern carried without dispersion (:meth:`_carried_velocity`); ``umax``,
         px/frame, replaces the speed bound.
         """
-        th, tw = p["tile"]
         m = self._map_tables(p)
         mx, my = m["mx"], m["my"]
         om = self.omega(m["kappa"] * focal_px / math.exp(logh)) / fps  # rad/frame
-        # both directions: e^{+i k om} + e^{-i k om}
-        turn = 2.0 * np.cos(np.outer(om, m["k"]))
-        idx = m["idx"]
-        c = np.empty(mx * my, dtype=np.complex64)
+        # both directions: e^{+i k om} + e^{-i k om}, one row per distinct wavenumber
+        cos = np.cos(np.outer(om, m["k"]))
+        c = np.zeros(mx * my, dtype=np.complex64)
         ck = compiled_module()
         if ck is not None:  # the same sums in one pass
-            ck.scatter_products(m["coef"].ravel(), turn.ravel(), idx, c)
+            ck.scatter_products(m["coef"], cos, m["rows"], m["slot"], m["cells"], c)
         else:
-            coef = m["coef"] * turn
-            c.real = np.bincount(idx, coef.real.ravel(), mx * my)
-            c.imag = np.bincount(idx, coef.imag.ravel(), mx * my)
+            coef = m["coef"] * (2.0 * cos)[m["rows"]]
+            c.real = np.bincount(m["idx"], coef.real.ravel(), mx * my)
+            c.imag = np.bincount(m["idx"], coef.imag.ravel(), mx * my)
         # score(u = (l_x w / mx, l_y h / my)) = sum_K c[K] e^{-2 pi i K . l / M}
-        uy = np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th))
-        ux = np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))
+        uy, ux = m["uy"], m["ux"]
         # the local maxima within the speed searched (the map spans a whole period)
         if umax is None:
             umax = BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps)
@@ -299,12 +305,8 @@ class _Profile:
         score = _map_window(c.reshape(my, mx), rows, cols)
         uy, ux = uy[rows, None], ux[None, cols]
         score[np.hypot(ux, uy) > umax] = -np.inf
-        ny, nx = score.shape
-        pad = np.pad(score, 1, constant_values=-np.inf)
-        nb = np.max([pad[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx]
-                     for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], axis=0)
-        peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
-        peaks = peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]
+        nx = score.shape[1]
+        peaks = (_map_peaks_arrays if ck is None else ck.map_peaks)(score, n_keep)
         return [np.array([ux[0, i % nx], uy[i // nx, 0]]) for i in peaks]
 
     def _map_best_velocity(self, p: dict[str, Any], fps: float, focal_px: float, logh: float,
@@ -439,3 +441,16 @@ def _map_window(c: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray
     # fftshift: shifted index i holds index (i - n // 2) mod n
     second = scipy.fft.fft(first[(rows - my // 2) % my], axis=1, workers=1)
     return second.real[:, (cols - mx // 2) % mx]
+
+
+def _map_peaks_arrays(score: np.ndarray, n_keep: int) -> np.ndarray:
+    """The flat indices of the ``n_keep`` highest local maxima of ``score`` (2-D): finite
+    points at least as high as each of their eight neighbours, highest first, ties in index
+    order (the compiled form, :func:`~wavealt.altimetry.dispersion.compiled.map_peaks`, gives
+    the same)."""
+    ny, nx = score.shape
+    pad = np.pad(score, 1, constant_values=-np.inf)
+    nb = np.max([pad[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx]
+                 for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], axis=0)
+    peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
+    return peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]

@@ -1201,10 +1201,43 @@ def test_the_compiled_map_sums_give_the_array_forms_bits(monkeypatch) -> None:
     frames, focal_px, _ = _linear_frames(3.0, 6.0, 0.5, 30.0, size=128, frames=30)
     est = DispersionAltimeter()
     p = est._periodogram(frames)
-    peaks = [est._velocity_map_peaks(p, 30.0, focal_px, lg, 5) for lg in (0.5, 1.5, math.inf)]
+    heights = (0.5, 1.5, math.inf)
+    peaks = [est._velocity_map_peaks(p, 30.0, focal_px, lg, 5) for lg in heights]
+    sub = np.arange(0, p["kappa"].size, 3)
+    calls = [(lg, modes) for lg in heights for modes in (None, sub)]
+    best = [est._map_best_velocity(p, 30.0, focal_px, lg, modes, 5) for lg, modes in calls]
     monkeypatch.setattr(kernel, "_compiled", False)
-    for lg, want_peaks in zip((0.5, 1.5, math.inf), peaks):
+    for lg, want_peaks in zip(heights, peaks):
         got_peaks = est._velocity_map_peaks(p, 30.0, focal_px, lg, 5)
         assert len(got_peaks) == len(want_peaks) > 0
         for a, b in zip(got_peaks, want_peaks):
             np.testing.assert_array_equal(a, b)
+    for (lg, modes), (val, u) in zip(calls, best):
+        val_a, u_a = est._map_best_velocity(p, 30.0, focal_px, lg, modes, 5)
+        assert val == val_a
+        np.testing.assert_array_equal(u, u_a)
+
+
+def test_the_compiled_best_start_is_the_scores_argmax() -> None:
+    """The compass search's start among the velocity map's peaks
+    (:func:`compiled.best_start`) is numpy's argmax of the score, the first of equal
+    scores, on every mode and on a subset."""
+    from wavealt.altimetry.dispersion import kernel
+
+    frames, focal_px, camera_v = _linear_frames(3.0, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter()
+    p = est._periodogram(frames)
+    assert kernel.use_compiled()
+    ck = kernel.compiled_module()
+    u_true = -np.asarray(camera_v) * focal_px / (3.0 * 30.0)
+    rng = np.random.default_rng(8)
+    cand = np.concatenate([u_true + rng.normal(0.0, 1.0, (6, 2)), [u_true, u_true]])
+    for modes in (None, np.arange(0, p["kappa"].size, 3)):
+        for lg in (np.log(3.0), np.log(3.0) + 0.5, math.inf):
+            for order in (np.arange(8), rng.permutation(8)):
+                c = cand[order]
+                want = est._score(p, 30.0, focal_px, np.full(8, lg), c[:, 0], c[:, 1], modes)
+                om, a, to_bins = est._compass_row(p, 30.0, focal_px, lg, modes)
+                got = ck.best_start(om, a["kx"], a["ky"], a["pair"], c[:, 0].copy(),
+                                    c[:, 1].copy(), to_bins)
+                assert got == int(np.argmax(want))

@@ -342,6 +342,41 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
 
 
 @_jit
+def best_start(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray,
+               cand_x: np.ndarray, cand_y: np.ndarray, to_bins: float) -> int:
+    """Which of the candidates ``(cand_x, cand_y)`` px/frame scores highest at one altitude
+    (``om`` as :func:`compass`'s), numpy's argmax of the score (the first maximum, a NaN
+    before all): the start of the compass search from the velocity map's peaks
+    (:meth:`~wavealt.altimetry.dispersion.profile._Profile._map_best_velocity`)."""
+    n = kx.size
+    k = cand_x.size
+    vals = np.empty((k, n), dtype=np.float32)
+    j1 = np.empty(n, dtype=np.int32)
+    j2 = np.empty(n, dtype=np.int32)
+    fr1 = np.empty(n, dtype=np.float32)
+    fr2 = np.empty(n, dtype=np.float32)
+    vx = np.empty(k, dtype=np.float32)
+    vy = np.empty(k, dtype=np.float32)
+    for c in range(k):
+        vx[c] = np.float32(cand_x[c] * to_bins)
+        vy[c] = np.float32(cand_y[c] * to_bins)
+    if not _shares_rows(om, vx, vy, kx, ky, pair, vals, j1, j2, fr1, fr2, _abs_bound(om),
+                        max(_abs_bound(kx), _abs_bound(ky))):
+        _shares_by_mode(om, vx, vy, kx, ky, pair, vals)
+    zero = np.float32(0.0)
+    count = np.float32(n)
+    frames = np.empty((3, 64), dtype=np.int64)
+    left = np.full(64, zero)
+    jb = 0
+    best = zero
+    for c in range(k):
+        score = (zero + _pairwise(vals[c], 0, n, zero, frames, left)) / count
+        if c == 0 or (not np.isnan(best) and (np.isnan(score) or score > best)):
+            jb, best = c, score
+    return jb
+
+
+@_jit
 def scatter_products(coef: np.ndarray, cos: np.ndarray, rows: np.ndarray, slot: np.ndarray,
                      cells: np.ndarray, out: np.ndarray) -> None:
     """``out`` (complex64, zeros on entry), in place: at each lattice cell, the sum of the

@@ -49,12 +49,9 @@ class _Profile:
         (:func:`~wavealt.altimetry.dispersion.compiled.compass`) gives the same bits."""
         ck = compiled_module()
         if ck is not None:
-            a = self._lookup(p, modes)
-            to_bins = a["pair"].shape[1] / (2.0 * np.pi)
-            om = self._omega_row(p, a, np.array([logh]), fps, focal_px, to_bins)
-            best, ux, uy = ck.compass(np.ascontiguousarray(om), a["kx"], a["ky"], a["pair"],
-                                      float(u[0]), float(u[1]), float(step), float(min_step),
-                                      to_bins)
+            om, a, to_bins = self._compass_row(p, fps, focal_px, logh, modes)
+            best, ux, uy = ck.compass(om, a["kx"], a["ky"], a["pair"], float(u[0]),
+                                      float(u[1]), float(step), float(min_step), to_bins)
             return best, np.array([ux, uy])
         off = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy],
                        dtype=np.float64)
@@ -69,6 +66,17 @@ class _Profile:
             else:
                 step *= 0.5
         return best, u
+
+    def _compass_row(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                     logh: float, modes: np.ndarray | None
+                     ) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
+        """What the compiled compass search takes at altitude ``exp(logh)``: the modes'
+        phase steps (table bins, one contiguous row), their lookup arrays and the bins per
+        radian."""
+        a = self._lookup(p, modes)
+        to_bins = a["pair"].shape[1] / (2.0 * np.pi)
+        om = self._omega_row(p, a, np.array([logh]), fps, focal_px, to_bins)
+        return np.ascontiguousarray(om), a, to_bins
 
     def _alias_floor_log(self, p: dict[str, Any], fps: float, focal_px: float) -> float:
         """Log of the lowest altitude at which ``ALIAS_MODE_FRACTION`` of the periodogram's
@@ -321,8 +329,15 @@ class _Profile:
         if not peaks:
             return None
         cand = np.array(peaks)
-        lg = np.full(len(peaks), logh)
-        k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1], modes)))
+        ck = compiled_module()
+        if ck is not None:  # the same choice, scored in one compiled pass
+            om, a, to_bins = self._compass_row(p, fps, focal_px, logh, modes)
+            k = ck.best_start(om, a["kx"], a["ky"], a["pair"], cand[:, 0].copy(),
+                              cand[:, 1].copy(), to_bins)
+        else:
+            lg = np.full(len(peaks), logh)
+            k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1],
+                                          modes)))
         return self._best_velocity(p, fps, focal_px, logh, cand[k], modes, self._map_step(p),
                                    min_step)
 

@@ -251,6 +251,37 @@ def _abs_bound(arr: np.ndarray) -> float:
 
 
 @_jit
+def _candidate_shares(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarray,
+                      ky: np.ndarray, pair: np.ndarray, vals: np.ndarray, j1: np.ndarray,
+                      j2: np.ndarray, fr1: np.ndarray, fr2: np.ndarray, om_max: float,
+                      k_max: float) -> None:
+    """``vals`` (candidates, modes), in place: :func:`_shares_rows` of the candidates
+    ``(vx, vy)`` (bins per unit wavenumber), or :func:`_shares_by_mode` where it declines."""
+    if not _shares_rows(om, vx, vy, kx, ky, pair, vals, j1, j2, fr1, fr2, om_max, k_max):
+        _shares_by_mode(om, vx, vy, kx, ky, pair, vals)
+
+
+@_jit
+def _row_mean(row: np.ndarray, frames: np.ndarray, left: np.ndarray) -> Any:
+    """The float32 mean of ``row`` as numpy takes it (its pairwise sum from +0, over the
+    count); ``frames``, ``left``: :func:`_pairwise`'s workspaces."""
+    zero = np.float32(0.0)
+    return (zero + _pairwise(row, 0, row.size, zero, frames, left)) / np.float32(row.size)
+
+
+@_jit
+def _first_argmax(score: np.ndarray) -> int:
+    """numpy's argmax of ``score``: the first maximum, a NaN before all."""
+    jb = 0
+    for j in range(1, score.size):
+        if np.isnan(score[jb]):
+            break
+        if np.isnan(score[j]) or score[j] > score[jb]:
+            jb = j
+    return jb
+
+
+@_jit
 def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux: float,
             uy: float, step: float, min_step: float, to_bins: float) -> tuple[float, float,
                                                                                 float]:
@@ -279,16 +310,13 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
     seen_y = np.empty(64, dtype=np.float32)
     seen_v = np.empty(64, dtype=np.float32)
     n_seen = 0
-    zero = np.float32(0.0)
-    count = np.float32(n)
     frames = np.empty((3, 64), dtype=np.int64)
-    left = np.full(64, zero)
+    left = np.full(64, np.float32(0.0))
     vx[0] = np.float32(ux * to_bins)
     vy[0] = np.float32(uy * to_bins)
-    if not _shares_rows(om, vx[:1], vy[:1], kx, ky, pair, vals[:1], j1, j2, fr1, fr2,
-                        om_max, k_max):
-        _shares_by_mode(om, vx[:1], vy[:1], kx, ky, pair, vals[:1])
-    best = (zero + _pairwise(vals[0], 0, n, zero, frames, left)) / count
+    _candidate_shares(om, vx[:1], vy[:1], kx, ky, pair, vals[:1], j1, j2, fr1, fr2, om_max,
+                      k_max)
+    best = _row_mean(vals[0], frames, left)
     seen_x[0], seen_y[0], seen_v[0] = vx[0], vy[0], best
     n_seen = 1
     cand_x = np.empty(8)
@@ -310,15 +338,14 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
             if known[j] < 0:
                 vx[k], vy[k] = bx, by
                 k += 1
-        if not _shares_rows(om, vx[:k], vy[:k], kx, ky, pair, vals[:k], j1, j2, fr1, fr2,
-                            om_max, k_max):
-            _shares_by_mode(om, vx[:k], vy[:k], kx, ky, pair, vals[:k])
+        _candidate_shares(om, vx[:k], vy[:k], kx, ky, pair, vals[:k], j1, j2, fr1, fr2,
+                          om_max, k_max)
         i = 0
         for j in range(8):
             if known[j] >= 0:
                 score[j] = seen_v[known[j]]
                 continue
-            score[j] = (zero + _pairwise(vals[i], 0, n, zero, frames, left)) / count
+            score[j] = _row_mean(vals[i], frames, left)
             if n_seen == seen_x.size:  # grow the record
                 seen_x = np.concatenate((seen_x, seen_x))
                 seen_y = np.concatenate((seen_y, seen_y))
@@ -326,13 +353,7 @@ def compass(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray, ux
             seen_x[n_seen], seen_y[n_seen], seen_v[n_seen] = vx[i], vy[i], score[j]
             n_seen += 1
             i += 1
-        # numpy's argmax: the first maximum, a NaN before all
-        jb = 0
-        for j in range(1, 8):
-            if np.isnan(score[jb]):
-                break
-            if np.isnan(score[j]) or score[j] > score[jb]:
-                jb = j
+        jb = _first_argmax(score)
         if score[jb] > best:
             best = score[jb]
             ux, uy = cand_x[jb], cand_y[jb]
@@ -360,20 +381,14 @@ def best_start(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray,
     for c in range(k):
         vx[c] = np.float32(cand_x[c] * to_bins)
         vy[c] = np.float32(cand_y[c] * to_bins)
-    if not _shares_rows(om, vx, vy, kx, ky, pair, vals, j1, j2, fr1, fr2, _abs_bound(om),
-                        max(_abs_bound(kx), _abs_bound(ky))):
-        _shares_by_mode(om, vx, vy, kx, ky, pair, vals)
-    zero = np.float32(0.0)
-    count = np.float32(n)
+    _candidate_shares(om, vx, vy, kx, ky, pair, vals, j1, j2, fr1, fr2, _abs_bound(om),
+                      max(_abs_bound(kx), _abs_bound(ky)))
     frames = np.empty((3, 64), dtype=np.int64)
-    left = np.full(64, zero)
-    jb = 0
-    best = zero
+    left = np.full(64, np.float32(0.0))
+    score = np.empty(k, dtype=np.float32)
     for c in range(k):
-        score = (zero + _pairwise(vals[c], 0, n, zero, frames, left)) / count
-        if c == 0 or (not np.isnan(best) and (np.isnan(score) or score > best)):
-            jb, best = c, score
-    return jb
+        score[c] = _row_mean(vals[c], frames, left)
+    return _first_argmax(score)
 
 
 @_jit

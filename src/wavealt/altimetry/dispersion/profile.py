@@ -277,9 +277,9 @@ class _Profile:
     def _velocity_map_peaks(self, p: dict[str, Any], fps: float, focal_px: float,
                             logh: float, n_keep: int = 3,
                             umax: float | None = None) -> list[np.ndarray]:
-        """The ``n_keep`` best local maxima (px/frame) of the score of the low modes over the
-        image velocity at altitude ``exp(logh)``, within ``BLIND_MAX_SPEED_MPS`` (and
-        ``max_shift_px``) of still.
+        """The ``n_keep`` best local maxima (px/frame) of the score of the map's modes
+        (:meth:`_map_tables`) over the image velocity at altitude ``exp(logh)``, within
+        ``BLIND_MAX_SPEED_MPS`` (and ``max_shift_px``) of still.
 
         Each mode's share over the phase step is a Fourier series, and the phase step is
         linear in the velocity, ``s omega / fps - kappa . u``; the modes lie on the tile's

@@ -24,6 +24,9 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_MAP_REACH,
     BLIND_REFINE_MIN_KAPPA,
     BLIND_SEED_PEAKS,
+    CARRIED_CHECKED_MATCH_PX,
+    CARRIED_CHECKED_MIN_RATIO,
+    CARRIED_MATCH_BINS,
     CARRIED_MIN_RATIO,
     BLIND_SD_FLOOR_LOG,
     MIN_PROMINENCE_Z,
@@ -863,9 +866,45 @@ def test_foam_carried_by_the_water_is_removed_before_the_blind_fit(monkeypatch) 
     assert np.allclose(res.camera_velocity_mps, camera_v, atol=0.1)
     assert abs(res.altitude_m - h) <= 3.0 * res.altitude_std_m
     monkeypatch.setattr(altimeter, "CARRIED_MIN_RATIO", np.inf)
+    monkeypatch.setattr(altimeter, "CARRIED_CHECKED_MIN_RATIO", np.inf)
     left_in = est.estimate(frames, fps=30.0, focal_px=focal_px)
     assert not left_in.signal.endswith("+carried")
     assert abs(left_in.altitude_m - h) / h > 0.2
+
+
+def test_a_second_of_clip_removes_a_weaker_carried_pattern_that_the_waves_confirm(
+        monkeypatch) -> None:
+    """The carried pattern's gate: foam over an ideal camera's waves, its breadth held at a
+    value between the checked and the plain bar.  A 30-frame clip's velocity match is fine
+    enough to be the check, so the pattern is removed and the waves confirm its velocity; a
+    15-frame clip's is not, and the same breadth leaves the table whole.  Foam too weak to
+    reach the checked bar is never tried."""
+    h = 10.0
+    assert CARRIED_CHECKED_MIN_RATIO < CARRIED_MIN_RATIO
+    ratios = []
+    real = DispersionAltimeter._carried_velocity
+
+    def held(self, p, fps, focal_px):
+        u_c, _ = real(self, p, fps, focal_px)
+        return u_c, ratios[-1]
+
+    monkeypatch.setattr(DispersionAltimeter, "_carried_velocity", held)
+    est = DispersionAltimeter(dispersion="gravity")
+    for frames_n, removed in ((30, True), (15, False)):
+        match = CARRIED_MATCH_BINS * (2.0 * math.pi / frames_n) / BLIND_MAP_KAPPA
+        assert (match <= CARRIED_CHECKED_MATCH_PX) == removed
+        clip, focal_px, camera_v = _linear_frames(h, 8.0, 0.6, 40.0, size=128, frames=frames_n)
+        u = np.asarray(camera_v) * focal_px / (h * 30.0)
+        frames = clip + 10.0 * clip.std() * _carried_texture(128, frames_n, u)
+        frames = ((frames - frames.min()) / np.ptp(frames)).astype(np.float32)
+        ratios.append(0.5 * (CARRIED_CHECKED_MIN_RATIO + CARRIED_MIN_RATIO))
+        res = est.estimate(frames, fps=30.0, focal_px=focal_px)
+        assert res.signal.endswith("+carried") == removed, (frames_n, res.signal)
+        if removed:
+            assert abs(res.altitude_m - h) / h < 0.05
+            assert np.allclose(res.camera_velocity_mps, camera_v, atol=0.1)
+        ratios.append(0.5 * CARRIED_CHECKED_MIN_RATIO)
+        assert not est.estimate(frames, fps=30.0, focal_px=focal_px).signal.endswith("+carried")
 
 
 def test_the_paired_band_is_where_the_peak_beats_the_ridge_by_less_than_a_standard_error(

@@ -11,6 +11,8 @@ import numpy as np
 from wavealt._checks import check_choice, check_finite_number, check_frames
 from wavealt.altimetry.dispersion.constants import (
     BLIND_MAP_KAPPA,
+    CARRIED_CHECKED_MATCH_PX,
+    CARRIED_CHECKED_MIN_RATIO,
     CARRIED_MATCH_BINS,
     CARRIED_MIN_RATIO,
     CHROMA_CHECK_QUALITY,
@@ -352,14 +354,19 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         and the profile fitted again; the waves must then confirm that the pattern rode
         with the water, the fit's velocity within ``CARRIED_MATCH_BINS`` of a low mode's
         periodogram bin of the pattern's, else the fit with the pattern left in stands.
+        Where that match is fine enough to tell the water's velocity from a line that
+        crosses the shell (``CARRIED_CHECKED_MATCH_PX``: clips of about a second), it alone
+        decides, and a weaker pattern (``CARRIED_CHECKED_MIN_RATIO``) is tried too.
         """
         t = int(p["frames"])
         u_c, ratio = self._carried_velocity(p, fps, focal_px)
-        if ratio >= CARRIED_MIN_RATIO:
+        match = CARRIED_MATCH_BINS * (2.0 * math.pi / t) / BLIND_MAP_KAPPA
+        checked = match <= CARRIED_CHECKED_MATCH_PX
+        bar = CARRIED_CHECKED_MIN_RATIO if checked else CARRIED_MIN_RATIO
+        if ratio >= bar:
             pc = self._periodogram(signal, corners=p["corners"], carried=u_c, like=p)
             fit = self._fit_blind(pc, fps, focal_px, start["logh"], -start["u"], disk)
-            match = CARRIED_MATCH_BINS * (2.0 * math.pi / t) / BLIND_MAP_KAPPA
-            if math.hypot(*(fit["u"] - u_c)) <= match:
+            if math.hypot(*(fit["u"] - u_c)) <= match and (fit["interior"] or not checked):
                 res = self._result(pc, fit, t, fps, focal_px)
                 res.signal = f"{'corners' if p['corners'] else 'full'}+carried"
                 return res

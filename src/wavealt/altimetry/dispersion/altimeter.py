@@ -337,7 +337,6 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             return spread
         return res
 
-
     def _blind(self, p: dict[str, Any], signal: np.ndarray, start: dict[str, Any], fps: float,
                focal_px: float, disk: tuple[float, float, float] | None = None
                ) -> DispersionResult:

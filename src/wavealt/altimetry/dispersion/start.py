@@ -10,6 +10,7 @@ import numpy as np
 
 from wavealt.altimetry.dispersion.constants import TUKEY_C_RAD
 from wavealt.altimetry.dispersion.kernel import compiled_start_module
+from wavealt.altimetry.dispersion.profile import _map_peaks_arrays
 from wavealt.altimetry.dispersion.spectra import _wrap
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
@@ -69,13 +70,8 @@ class _Start:
                                                + gy.ravel()[:, None] * ky[sel][None, :]))
                 cost = self._ring_cost(r, ring, w0[sel], int(ring.max()) + 1)
             cost = cost.reshape(gx.shape)
-            # local minima of the grid, best first
-            pad = np.pad(cost, 1, constant_values=np.inf)
-            nb = np.min(np.stack([pad[1 + dy:1 + dy + cost.shape[0], 1 + dx:1 + dx + cost.shape[1]]
-                                  for dy in (-1, 0, 1) for dx in (-1, 0, 1)
-                                  if dy or dx]), axis=0)
-            mins = np.flatnonzero((cost <= nb).ravel())
-            mins = mins[np.argsort(cost.ravel()[mins])][:keep]
+            # local minima of the grid, best first: the negated cost's local maxima
+            mins = _map_peaks_arrays(-cost, keep)
             return [np.array([gx.ravel()[i], gy.ravel()[i]]) for i in mins]
 
         band0 = max(0.25, 6.0 * dk)
@@ -131,9 +127,7 @@ class _Start:
                     terms = ck.refine_terms(om, dom, kappa, kx, ky, psi, w0, float(u[0]),
                                             float(u[1]), float(fps), float(kb), TUKEY_C_RAD)
                     use, r, tw, s, jac, jw, r_use, wt_sum = terms
-                    if r_use.size < 6:  # the modes used
-                        break
-                    if wt_sum <= 0:
+                    if r_use.size < 6 or wt_sum <= 0:  # six modes used, some weight
                         break
                 else:
                     # keep modes whose own wave phase step does not wrap (unambiguous s)

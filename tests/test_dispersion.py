@@ -30,6 +30,7 @@ from wavealt.altimetry.dispersion.constants import (
     CARRIED_MIN_RATIO,
     BLIND_SD_FLOOR_LOG,
     MIN_PROMINENCE_Z,
+    MIN_SIGNIFICANCE,
     MIN_REFINE_MODES,
     PAIRED_BAND_SD_FRACTION,
 )
@@ -737,6 +738,24 @@ def test_a_blind_start_at_the_bottom_is_followed_to_the_top_of_the_range(above_b
     assert np.allclose(fit["u"], u_true, atol=0.05)
 
 
+def test_a_start_far_below_the_shell_is_searched_again_over_the_whole_range() -> None:
+    """A start x5 too low and above the bottom of the range: its profile (x1.5 above it)
+    holds no significant peak, and the profile over the whole range, its velocity from the
+    map, replaces it."""
+    h = 5.0
+    frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    u_true = np.asarray(camera_v) * focal_px / (h * 30.0)
+    far = u_true + np.array([3.0, -2.0])
+    narrow = est._profile_fit(p, 30.0, focal_px, np.log(1.0), far)
+    assert narrow["ridge"][0][-1] < np.log(2.0)
+    assert narrow["z"] < MIN_SIGNIFICANCE
+    fit = est._fit_blind(p, 30.0, focal_px, np.log(1.0), far)
+    assert fit["z"] >= MIN_SIGNIFICANCE
+    assert abs(np.exp(fit["logh"]) - h) / h < 0.06
+    assert np.allclose(fit["u"], u_true, atol=0.05)
+
 
 def test_slow_content_at_the_bottom_of_the_band_does_not_move_the_blind_estimate(
         monkeypatch) -> None:
@@ -1170,9 +1189,9 @@ def test_the_compiled_gauss_newton_terms_give_the_array_forms_start(monkeypatch)
 
 def test_the_velocity_maps_window_is_the_whole_fft2s() -> None:
     """The velocity map transforms only the rows it keeps a second time
-    (:func:`profile._map_window`): the same bits as SciPy's whole ``fft2``, shifted and
+    (:func:`velocity_map._map_window`): the same bits as SciPy's whole ``fft2``, shifted and
     cut, on lattices of prime and composite sides."""
-    from wavealt.altimetry.dispersion.profile import _map_window
+    from wavealt.altimetry.dispersion.velocity_map import _map_window
 
     rng = np.random.default_rng(4)
     for my, mx in ((457, 457), (229, 300), (64, 96)):
@@ -1208,7 +1227,7 @@ def test_the_compiled_map_sums_give_the_array_forms_bits(monkeypatch) -> None:
     maxima and stable sort, ties and non-finite points included, and so do the map's
     peaks."""
     from wavealt.altimetry.dispersion import kernel
-    from wavealt.altimetry.dispersion.profile import _map_peaks_arrays
+    from wavealt.altimetry.dispersion.velocity_map import _map_peaks_arrays
 
     assert kernel.use_compiled()
     ck = kernel.compiled_module()

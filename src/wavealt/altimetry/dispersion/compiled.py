@@ -368,7 +368,7 @@ def best_start(om: np.ndarray, kx: np.ndarray, ky: np.ndarray, pair: np.ndarray,
     """Which of the candidates ``(cand_x, cand_y)`` px/frame scores highest at one altitude
     (``om`` as :func:`compass`'s), numpy's argmax of the score (the first maximum, a NaN
     before all): the start of the compass search from the velocity map's peaks
-    (:meth:`~wavealt.altimetry.dispersion.profile._Profile._map_best_velocity`)."""
+    (:meth:`~wavealt.altimetry.dispersion.velocity_map._VelocityMap._map_best_velocity`)."""
     n = kx.size
     k = cand_x.size
     vals = np.empty((k, n), dtype=np.float32)
@@ -422,7 +422,7 @@ def map_peaks(score: np.ndarray, n_keep: int) -> np.ndarray:
     """The flat indices of the ``n_keep`` highest local maxima of ``score`` (2-D float64):
     finite points at least as high as each of their eight neighbours (a NaN neighbour
     forbids one), highest first, ties in index order, as
-    :func:`~wavealt.altimetry.dispersion.profile._map_peaks_arrays`."""
+    :func:`~wavealt.altimetry.dispersion.velocity_map._map_peaks_arrays`."""
     ny, nx = score.shape
     top = np.empty(max(n_keep, 0), dtype=np.int64)
     top_v = np.empty(max(n_keep, 0))

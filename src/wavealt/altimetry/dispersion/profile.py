@@ -7,12 +7,9 @@ import math
 from typing import Any
 
 import numpy as np
-import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import (
     ALIAS_MODE_FRACTION,
-    BLIND_MAP_KAPPA,
-    BLIND_MAP_REACH,
     BLIND_MAX_SPEED_MPS,
     BLIND_PEAK_CANDIDATES,
     BLIND_PROFILE_ABOVE_LOG,
@@ -22,6 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_SEED_MIN_Z,
     BLIND_SEED_PEAKS,
     CARRIED_MAP_PEAKS,
+    MIN_PROMINENCE_Z,
     MIN_REFINE_MODES,
     MIN_SIGNIFICANCE,
 )
@@ -33,9 +31,10 @@ from wavealt.altimetry.dispersion.search import (
     null_sd,
     peak_prominences,
 )
+from wavealt.altimetry.dispersion.velocity_map import _VelocityMap
 
 
-class _Profile:
+class _Profile(_VelocityMap):
     """The blind and prior-disk fits of :class:`DispersionAltimeter` (uses the score of
     :class:`~wavealt.altimetry.dispersion.search._Search`, ``altitude_range_m`` and the
     dispersion relation)."""
@@ -100,6 +99,33 @@ class _Profile:
     def _fit_blind(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                    logh0: float, u0: np.ndarray,
                    prior: tuple[float, float, float] | None = None) -> dict[str, Any]:
+        """The blind profile fit (:meth:`_profile_fit`) from the phase-step start
+        ``(logh0, u0)``, and again over the whole range from the velocity map where the
+        start's profile holds no significant peak and that one holds a shell's.
+
+        The profile from a start covers the altitudes a start may be wrong by (x1.5 above
+        it, down to the frame rate's floor).  On a faint sea (texture a fraction of the
+        noise) the phase-step start may be several times off, and the shell then lies beyond
+        that profile: the peak it keeps scores no better than random phase steps
+        (``MIN_SIGNIFICANCE``), which is no evidence of where the shell is.  The profile
+        over the whole range, its velocity searched from the map as for a start that ran
+        off the range (:meth:`_seed_profile`), replaces it where its own peak is both
+        significant and prominent above the profile's noise (``MIN_PROMINENCE_Z``): the
+        higher of two peaks that both fail the significance is noise, and a significant
+        peak without prominence is the top of a ridge that rises toward an end of the
+        range (``docs/dispersion.md``, fifteenth session).
+        """
+        fit = self._profile_fit(p, fps, focal_px, logh0, u0, prior)
+        lo = math.log(self.altitude_range_m[0])
+        if fit["z"] >= MIN_SIGNIFICANCE or logh0 <= lo + BLIND_PROFILE_ABOVE_LOG:
+            return fit  # significant, or already the whole range from the map
+        wide = self._profile_fit(p, fps, focal_px, lo, u0, prior)
+        shell = wide["z"] >= MIN_SIGNIFICANCE and wide["prominence_z"] >= MIN_PROMINENCE_Z
+        return wide if shell else fit
+
+    def _profile_fit(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                     logh0: float, u0: np.ndarray,
+                     prior: tuple[float, float, float] | None = None) -> dict[str, Any]:
         """Velocity unknown (or known to a disk, ``prior``): the profile of the periodogram
         score over log altitude, the velocity re-fitted at every altitude.
 
@@ -177,7 +203,9 @@ class _Profile:
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
         # the profile's noise: the sd of its score under random phase steps
         noise = null_sd(p, sub)
-        return {"logh": logh, "u": u, "scan": scan, "interior": interior,
+        null_mean, null_spread = null_score(p)
+        z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_spread, 1e-30)
+        return {"logh": logh, "u": u, "z": z, "scan": scan, "interior": interior,
                 "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge),
                 "band_log": paired_band(grid, ridge, i)}
@@ -228,118 +256,6 @@ class _Profile:
             scan[j], path[j] = val, u
             return True
         return False
-
-    @staticmethod
-    def _map_tables(p: dict[str, Any]) -> dict[str, Any]:
-        """What the velocity map (:meth:`_velocity_map_peaks`) needs that does not depend on
-        the altitude, built once per periodogram (cached in ``p``): its modes, their share
-        tables' Fourier coefficients, the lattice's size, step and velocities and each
-        coefficient's place on it (and the occupied places, a quarter of the lattice), and
-        the modes' distinct wavenumbers (a mode's phase step depends on ``|kappa|`` alone,
-        and a square tile's modes come in fours of one ``|kappa|``).  The step, px/frame,
-        is half the width ``(2 pi / T) / kappa`` of the peak over the velocity of the
-        longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at least 24 modes); the modes
-        reach ``BLIND_MAP_REACH`` times that top, where the step is a whole width
-        (``constants``)."""
-        if "_map" not in p:
-            modes = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
-            if modes.size < 24:
-                modes = np.argsort(p["kappa"], kind="stable")[:24]
-            th, tw = p["tile"]
-            top = float(p["kappa"][modes].max())
-            step = 0.5 * (2.0 * np.pi / p["frames"]) / top
-            modes = np.union1d(modes, np.flatnonzero(p["kappa"] <= BLIND_MAP_REACH * top))
-            # a fast FFT length at or above the lattice the step asks for (its spacing a
-            # little finer): a prime length costs several times as much
-            mx, my = (scipy.fft.next_fast_len(max(8, round(n / step))) for n in (tw, th))
-            n_psi = p["q"].shape[1]
-            k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
-            a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
-            b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
-            idx = (((k[None, :] * b[:, None]) % my) * mx
-                   + (k[None, :] * a[:, None]) % mx).ravel()
-            kappa, rows = np.unique(p["kappa"][modes], return_inverse=True)
-            cells, slot = np.unique(idx, return_inverse=True)
-            p["_map"] = {
-                "step": step, "mx": mx, "my": my, "k": k, "kappa": kappa, "rows": rows,
-                # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
-                "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1),
-                "idx": idx, "cells": cells, "slot": slot,
-                # the lattice's velocities, px/frame, in fftshift's order
-                "uy": np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th)),
-                "ux": np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))}
-        return p["_map"]
-
-    def _map_step(self, p: dict[str, Any]) -> float:
-        """The velocity map's step, px/frame (:meth:`_map_tables`)."""
-        return self._map_tables(p)["step"]
-
-    def _velocity_map_peaks(self, p: dict[str, Any], fps: float, focal_px: float,
-                            logh: float, n_keep: int = 3,
-                            umax: float | None = None) -> list[np.ndarray]:
-        """The ``n_keep`` best local maxima (px/frame) of the score of the map's modes
-        (:meth:`_map_tables`) over the image velocity at altitude ``exp(logh)``, within
-        ``BLIND_MAX_SPEED_MPS`` (and ``max_shift_px``) of still.
-
-        Each mode's share over the phase step is a Fourier series, and the phase step is
-        linear in the velocity, ``s omega / fps - kappa . u``; the modes lie on the tile's
-        wavenumber lattice ``kappa = 2 pi (a / w, b / h)``, so the sum over the modes, both
-        directions ``s`` added, is one 2-D FFT over a velocity lattice of period ``(w, h)``
-        px/frame (exact at its points, which are :meth:`_map_step` apart).  ``logh = inf``
-        maps a pattern carried without dispersion (:meth:`_carried_velocity`); ``umax``,
-        px/frame, replaces the speed bound.
-        """
-        m = self._map_tables(p)
-        mx, my = m["mx"], m["my"]
-        om = self.omega(m["kappa"] * focal_px / math.exp(logh)) / fps  # rad/frame
-        # both directions: e^{+i k om} + e^{-i k om}, one row per distinct wavenumber
-        cos = np.cos(np.outer(om, m["k"]))
-        c = np.zeros(mx * my, dtype=np.complex64)
-        ck = compiled_module()
-        if ck is not None:  # the same sums in one pass
-            ck.scatter_products(m["coef"], cos, m["rows"], m["slot"], m["cells"], c)
-        else:
-            coef = m["coef"] * (2.0 * cos)[m["rows"]]
-            c.real = np.bincount(m["idx"], coef.real.ravel(), mx * my)
-            c.imag = np.bincount(m["idx"], coef.imag.ravel(), mx * my)
-        # score(u = (l_x w / mx, l_y h / my)) = sum_K c[K] e^{-2 pi i K . l / M}
-        uy, ux = m["uy"], m["ux"]
-        # the local maxima within the speed searched (the map spans a whole period)
-        if umax is None:
-            umax = BLIND_MAX_SPEED_MPS * focal_px / (math.exp(logh) * fps)
-        umax = min(self.max_shift_px, umax)
-        rows, cols = np.flatnonzero(np.abs(uy) <= umax), np.flatnonzero(np.abs(ux) <= umax)
-        rows, cols = np.arange(rows[0], rows[-1] + 1), np.arange(cols[0], cols[-1] + 1)
-        score = _map_window(c.reshape(my, mx), rows, cols)
-        uy, ux = uy[rows, None], ux[None, cols]
-        score[np.hypot(ux, uy) > umax] = -np.inf
-        nx = score.shape[1]
-        peaks = (_map_peaks_arrays if ck is None else ck.map_peaks)(score, n_keep)
-        return [np.array([ux[0, i % nx], uy[i // nx, 0]]) for i in peaks]
-
-    def _map_best_velocity(self, p: dict[str, Any], fps: float, focal_px: float, logh: float,
-                           modes: np.ndarray | None, n_keep: int = 3,
-                           umax: float | None = None, min_step: float = 0.0015
-                           ) -> tuple[float, np.ndarray] | None:
-        """The best of the velocity map's ``n_keep`` best peaks at altitude ``exp(logh)``
-        (:meth:`_velocity_map_peaks`, within ``umax``), scored on ``modes``, refined
-        (:meth:`_best_velocity` from the map's step down to ``min_step``): its score and
-        velocity, or None where the map has no peak."""
-        peaks = self._velocity_map_peaks(p, fps, focal_px, logh, n_keep, umax)
-        if not peaks:
-            return None
-        cand = np.array(peaks)
-        ck = compiled_module()
-        if ck is not None:  # the same choice, scored in one compiled pass
-            om, a, to_bins = self._compass_row(p, fps, focal_px, logh, modes)
-            k = ck.best_start(om, a["kx"], a["ky"], a["pair"], cand[:, 0].copy(),
-                              cand[:, 1].copy(), to_bins)
-        else:
-            lg = np.full(len(peaks), logh)
-            k = int(np.argmax(self._score(p, fps, focal_px, lg, cand[:, 0], cand[:, 1],
-                                          modes)))
-        return self._best_velocity(p, fps, focal_px, logh, cand[k], modes, self._map_step(p),
-                                   min_step)
 
     def _carried_velocity(self, p: dict[str, Any], fps: float,
                           focal_px: float) -> tuple[np.ndarray, float]:
@@ -444,28 +360,3 @@ def paired_band(grid: np.ndarray, ridge: np.ndarray, i: int, t_max: float = 1.0)
         else:
             ends.append(grid[j] + way * step)
     return float(0.5 * (ends[1] - ends[0]))
-
-
-def _map_window(c: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """``fftshift(fft2(c).real)[rows][:, cols]`` of a complex64 lattice ``c`` (SciPy's
-    FFT), the same bits for a part of the work: ``fft2`` transforms the columns, then the
-    rows, and only the rows kept need the second pass (a test holds it to ``fft2``).  The
-    velocity map keeps about a third of its rows (the speeds searched)."""
-    my, mx = c.shape
-    first = scipy.fft.fft(c, axis=0, workers=1)
-    # fftshift: shifted index i holds index (i - n // 2) mod n
-    second = scipy.fft.fft(first[(rows - my // 2) % my], axis=1, workers=1)
-    return second.real[:, (cols - mx // 2) % mx]
-
-
-def _map_peaks_arrays(score: np.ndarray, n_keep: int) -> np.ndarray:
-    """The flat indices of the ``n_keep`` highest local maxima of ``score`` (2-D): finite
-    points at least as high as each of their eight neighbours, highest first, ties in index
-    order (the compiled form, :func:`~wavealt.altimetry.dispersion.compiled.map_peaks`, gives
-    the same)."""
-    ny, nx = score.shape
-    pad = np.pad(score, 1, constant_values=-np.inf)
-    nb = np.max([pad[1 + dy:1 + dy + ny, 1 + dx:1 + dx + nx]
-                 for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], axis=0)
-    peaks = np.flatnonzero(((score >= nb) & np.isfinite(score)).ravel())
-    return peaks[np.argsort(-score.ravel()[peaks], kind="stable")][:n_keep]

@@ -46,8 +46,10 @@ PROFILE_PROMINENCE = (0.02, 0.1)
 BLIND_SD_FLOOR_LOG = 0.02
 #: Part of the blind ridge's paired band (:func:`~.profile.paired_band`: the stretch around
 #: the peak that the peak does not beat by one standard error of the per-mode differences)
-#: that counts as a standard deviation of the altitude; the systematic term of a blind fit's
-#: uncertainty is the larger of it and ``BLIND_SD_FLOOR_LOG``.  On a flat ridge, where the
+#: that counts as a standard deviation of the altitude, on its own: a blind fit's uncertainty
+#: is the larger of it and the groups' spread and ``BLIND_SD_FLOOR_LOG`` in quadrature (added
+#: to that sum it counted the ridge's flatness twice: 85-93 % of tuning windows fell within
+#: one sigma).  On a flat ridge, where the
 #: drift trades against the altitude with almost no change of the score, the groups agree
 #: and their spread is small, yet the peak lies wherever a small bias puts it: an
 #: independent generator's noisy clip read +11 % at 2.9 % (the truth scored 0.1 null

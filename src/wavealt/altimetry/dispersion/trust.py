@@ -65,8 +65,12 @@ class _Trust:
         profile is flat puts its peak far off, so the spread measures how well the clip pins
         the altitude (on the fine grid alone it was 2-20 times too small).  Where every
         group sees the same flat ridge the spread stays small; the ridge's paired band
-        (:func:`~wavealt.altimetry.dispersion.profile.paired_band`) then sets the systematic
-        term (``PAIRED_BAND_SD_FRACTION``).
+        (:func:`~wavealt.altimetry.dispersion.profile.paired_band`) then sets the
+        uncertainty (``PAIRED_BAND_SD_FRACTION``).  The groups' spread and the floor (the
+        bias they share) are independent and add in quadrature; the band's term is
+        calibrated as a whole standard deviation on its own (it covers the errors, bias
+        and scatter, at the 68 % rate), so it replaces their sum where it is larger rather
+        than adding to it.
         """
         logh, u = fit["logh"], fit["u"]
         vals = fit["vals"]
@@ -91,10 +95,12 @@ class _Trust:
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
-        if profile:
-            # on a flat ridge a small bias moves the peak far: the paired band's width
-            floor = max(floor, PAIRED_BAND_SD_FRACTION * fit["band_log"])
         sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), floor)
+        if profile:
+            # on a flat ridge a small bias moves the peak far: the paired band's width, a
+            # whole uncertainty of its own (its fraction is set so that it alone covers
+            # 68 % of the errors), where it is the larger
+            sd_logh = max(sd_logh, PAIRED_BAND_SD_FRACTION * fit["band_log"])
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
         null_mean, null_sd = null_score(p)

@@ -3,6 +3,7 @@ targets; prints one JSON object.
 
     python benchmarks/bench_dispersion.py [--rows realistic-30-blind,paper-10-exact,...]
         [--seeds 23,31] [--sequences 200] [--workers 2] [--out FILE.json] [--quick] [--no-cache]
+        [--compression none|jpeg|h264] [--jpeg-quality 90]
 
 Each row is one (preset, frames, mode) combination (:data:`ROWS`), run on ``--sequences``
 simulated 256^2 sequences per seed (altitude 1-15 m, wind 2-12 m/s, the camera drifting
@@ -16,6 +17,10 @@ clip are not the same frames: up to 0.1 apart in intensity on both presets).  Mo
   ``velocity_mps`` = the camera's true velocity over the water minus that current,
   ``velocity_sigma_mps`` = 1;
 * ``exact``: ``velocity_mps`` = the camera's true velocity over the water.
+
+The realistic preset's camera encodes its frames as JPEG at quality 90; ``--compression``
+and ``--jpeg-quality`` change its encoder (the paper renderer has no camera model, and its
+rows are unchanged), so that the rows can be read against the coder.
 
 Per row, seed and condition: relative MAE, median and bias, the trusted share and the error
 of the trusted estimates, 3-sigma coverage, half/double-altitude confusions, latency per
@@ -61,6 +66,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from wavealt.io import atomic_path, atomic_write_text  # noqa: E402
+from wavealt.sim.config import COMPRESSIONS  # noqa: E402
 
 # -- settings (one place) -------------------------------------------------------------------
 HERE = Path(__file__).resolve().parent
@@ -156,11 +162,16 @@ def estimator(dispersion: str) -> Any:
 
 
 # -- sequences and their cache ----------------------------------------------------------------
-def sim_config(preset: str, frames: int, seed: int, sequences: int, size: int) -> Any:
+def sim_config(preset: str, frames: int, seed: int, sequences: int, size: int,
+               sensor: tuple[tuple[str, Any], ...] = ()) -> Any:
+    """The simulator's config of a row's sequences; ``sensor``: ``(field, value)`` pairs of
+    the realistic camera's encoder (``--compression``, ``--jpeg-quality``), which the paper
+    renderer does not have."""
     from wavealt.sim.config import preset_config
 
+    overrides = dict(sensor) if preset == "realistic" else {}
     return preset_config(preset, sequences=sequences, size=size, frames=frames, seed=seed,
-                         **SCENARIO_OVERRIDES)
+                         **SCENARIO_OVERRIDES, **overrides)
 
 
 @functools.cache
@@ -293,11 +304,12 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
             "est_vy_mps": float(res.camera_velocity_mps[1])}
 
 
-def run_sequence(task: tuple[str, int, int, int, int, bool]) -> list[dict[str, Any]]:
-    """Window records (one per condition) of sequence ``index`` of a row and seed."""
-    name, seed, index, sequences, size, use_cache = task
+def run_sequence(task: tuple) -> list[dict[str, Any]]:
+    """Window records (one per condition) of sequence ``index`` of a row and seed: ``task``
+    is ``(row, seed, index, sequences, size, use_cache[, sensor])`` (:func:`sim_config`)."""
+    name, seed, index, sequences, size, use_cache, *rest = task
     row = ROW_BY_NAME[name]
-    cfg = sim_config(row.preset, row.frames, seed, sequences, size)
+    cfg = sim_config(row.preset, row.frames, seed, sequences, size, *rest)
     sc = cfg.sample_scenario(index)
     velocity, sigma, current = given_velocity(row, sc)
     base = base_record(row, seed, index, sc, current, velocity)
@@ -453,8 +465,8 @@ def targets() -> dict[str, Any]:
 
 # -- running -----------------------------------------------------------------------------------
 def tasks_of(rows: Iterable[RowSpec], seeds: Sequence[int], sequences: int, size: int,
-             use_cache: bool) -> list[tuple[str, int, int, int, int, bool]]:
-    return [(r.name, s, i, sequences, size, use_cache)
+             use_cache: bool, sensor: tuple[tuple[str, Any], ...] = ()) -> list[tuple]:
+    return [(r.name, s, i, sequences, size, use_cache, sensor)
             for r in rows for s in seeds for i in range(sequences)]
 
 
@@ -496,6 +508,13 @@ def environment() -> dict[str, Any]:
             "simulator_sha1": simulator_digest(), **git_state()}
 
 
+def realistic_camera(sensor: tuple[tuple[str, Any], ...], size: int) -> dict[str, Any]:
+    """The realistic rows' encoder as run (the preset's, with ``sensor`` applied)."""
+    cam = sim_config("realistic", 30, 0, 1, size, sensor).sensor
+    return {"compression": cam.compression, "jpeg_quality": cam.jpeg_quality,
+            "h264_crf": cam.h264_crf}
+
+
 def write_outputs(result: dict[str, Any], recs: list[dict[str, Any]], out: Path) -> None:
     atomic_write_text(out, json.dumps(result, indent=2) + "\n")
     buf = io.StringIO()
@@ -524,6 +543,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="also write the JSON here (atomically) and the windows to .csv beside")
     ap.add_argument("--quick", action="store_true", help="a smoke run: few sequences, one seed")
     ap.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    ap.add_argument("--compression", choices=COMPRESSIONS, default=None,
+                    help="the realistic camera's encoder (default: the preset's, jpeg)")
+    ap.add_argument("--jpeg-quality", type=int, default=None,
+                    help="the realistic camera's JPEG quality, 1-100 (default: the preset's, 90)")
     args = ap.parse_args(argv)
     names = [s.strip() for s in args.rows.split(",") if s.strip()]
     unknown = [n for n in names if n not in ROW_BY_NAME]
@@ -545,6 +568,15 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         ap.error(f"--sequences must be >= 1; got {args.sequences}")
     if args.workers < 1:
         ap.error(f"--workers must be >= 1; got {args.workers}")
+    if args.jpeg_quality is not None:
+        if not 1 <= args.jpeg_quality <= 100:
+            ap.error(f"--jpeg-quality must be in 1-100; got {args.jpeg_quality}")
+        if args.compression not in (None, "jpeg"):
+            ap.error(f"--jpeg-quality needs the jpeg encoder; got --compression "
+                     f"{args.compression}")
+    args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
+                                            ("jpeg_quality", args.jpeg_quality))
+                        if v is not None)
     return args
 
 
@@ -552,7 +584,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     init_process()
     t0 = time.perf_counter()
-    tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache)
+    tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache,
+                     args.sensor)
     recs = run_tasks(tasks, args.workers)
     rows = {r.name: row_report(r, args.seeds, [x for x in recs if x["row"] == r.name])
             for r in args.rows}
@@ -567,6 +600,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "sequences_per_seed": args.sequences, "size_px": args.size,
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
+            "realistic_camera": realistic_camera(args.sensor, args.size),
             "frames": "each row generates its sequences with frames=F directly",
             "frames_as_stored": "uint8 when exact k/255 (realistic: lossless), else float16 "
                                 "(paper); the estimator sees them so, cache or not",

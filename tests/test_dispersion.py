@@ -20,6 +20,7 @@ from wavealt.altimetry.dispersion import (
     estimate_altitude,
 )
 from wavealt.altimetry.dispersion.constants import (
+    BAND_CALIBRATED_MIN_FRAMES,
     BLIND_MAP_KAPPA,
     BLIND_MAP_REACH,
     BLIND_REFINE_MIN_KAPPA,
@@ -953,7 +954,8 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     """A blind fit's uncertainty is at least ``PAIRED_BAND_SD_FRACTION`` of the paired band
     and at least the floor: a fit whose ridge the peak does not beat over +-20 % says so,
     however well its mode groups agree; where the band's term is the larger it is the
-    uncertainty, not added to the groups' spread (it is calibrated as a whole one)."""
+    uncertainty, not added to the groups' spread (it is calibrated as a whole one on clips
+    of ``BAND_CALIBRATED_MIN_FRAMES`` or more; on shorter ones it is added)."""
     h = 3.0
     frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
     est = DispersionAltimeter(dispersion="gravity")
@@ -967,6 +969,11 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     assert flat.altitude_std_m / flat.altitude_m == pytest.approx(PAIRED_BAND_SD_FRACTION * 0.2,
                                                                   rel=1e-12)
     assert not est._judge(flat).trusted
+    # a clip shorter than the band's calibration set: the band is the systematic term beside
+    # the groups' spread
+    short = est._result(p, {**fit, "band_log": 0.2}, BAND_CALIBRATED_MIN_FRAMES - 1, 30.0,
+                        focal_px)
+    assert short.altitude_std_m / short.altitude_m > PAIRED_BAND_SD_FRACTION * 0.2 * (1 + 1e-6)
 
 
 @pytest.fixture(params=["arrays", "compiled"])

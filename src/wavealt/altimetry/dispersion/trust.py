@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from wavealt.altimetry.dispersion.constants import (
+    BAND_CALIBRATED_MIN_FRAMES,
     BLIND_SD_FLOOR_LOG,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
@@ -70,7 +71,8 @@ class _Trust:
         bias they share) are independent and add in quadrature; the band's term is
         calibrated as a whole standard deviation on its own (it covers the errors, bias
         and scatter, at the 68 % rate), so it replaces their sum where it is larger rather
-        than adding to it.
+        than adding to it, on clips as long as those it was calibrated on
+        (``BAND_CALIBRATED_MIN_FRAMES``); on shorter ones it is the systematic term.
         """
         logh, u = fit["logh"], fit["u"]
         vals = fit["vals"]
@@ -95,12 +97,16 @@ class _Trust:
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
-        sd_logh = math.hypot(float(np.std(ests, ddof=1) / math.sqrt(len(ests))), floor)
-        if profile:
+        spread = float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
+        band = PAIRED_BAND_SD_FRACTION * fit["band_log"] if profile else 0.0
+        if t >= BAND_CALIBRATED_MIN_FRAMES:
             # on a flat ridge a small bias moves the peak far: the paired band's width, a
             # whole uncertainty of its own (its fraction is set so that it alone covers
             # 68 % of the errors), where it is the larger
-            sd_logh = max(sd_logh, PAIRED_BAND_SD_FRACTION * fit["band_log"])
+            sd_logh = max(math.hypot(spread, floor), band)
+        else:
+            # shorter than the clips the band was calibrated on: it adds to the spread
+            sd_logh = math.hypot(spread, max(floor, band))
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
         null_mean, null_sd = null_score(p)

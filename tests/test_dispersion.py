@@ -954,8 +954,8 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     """A blind fit's uncertainty is at least ``PAIRED_BAND_SD_FRACTION`` of the paired band
     and at least the floor: a fit whose ridge the peak does not beat over +-20 % says so,
     however well its mode groups agree; where the band's term is the larger it is the
-    uncertainty, not added to the groups' spread (it is calibrated as a whole one on clips
-    of ``BAND_CALIBRATED_MIN_FRAMES`` or more; on shorter ones it is added)."""
+    uncertainty, not added to the groups' spread (it is a whole one on clips of
+    ``BAND_CALIBRATED_MIN_FRAMES`` or more; on shorter ones it is added)."""
     h = 3.0
     frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
     est = DispersionAltimeter(dispersion="gravity")

@@ -71,7 +71,7 @@ class _Trust:
         bias they share) are independent and add in quadrature; the band's term is
         calibrated as a whole standard deviation on its own (it covers the errors, bias
         and scatter, at the 68 % rate), so it replaces their sum where it is larger rather
-        than adding to it, on clips as long as those it was calibrated on
+        than adding to it, on clips long enough for that calibration to hold
         (``BAND_CALIBRATED_MIN_FRAMES``); on shorter ones it is the systematic term.
         """
         logh, u = fit["logh"], fit["u"]
@@ -105,7 +105,7 @@ class _Trust:
             # 68 % of the errors), where it is the larger
             sd_logh = max(math.hypot(spread, floor), band)
         else:
-            # shorter than the clips the band was calibrated on: it adds to the spread
+            # a shorter clip, where the band alone under-covers: it adds to the spread
             sd_logh = math.hypot(spread, max(floor, band))
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution

@@ -263,3 +263,45 @@ def test_a_trusted_interval_holds_no_altitude_more_than_ten_percent_from_the_est
     assert (reason is None) == (worst <= 0.10)
     if reason is not None:
         assert reason.startswith("3-sigma uncertainty")
+
+
+def _slope_image(h: float, seed: int, *, size: int = 128, frames: int = 10):
+    """Frames linear in the slope (an ideal camera) of a paper-preset sea seen from ``h``,
+    the camera drifting 0.3 m/s; its velocity over the water and focal length."""
+    cfg = preset_config("paper", size=size, frames=frames, altitude_m=(h, h),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3))
+    sc = cfg.sample_scenario(seed)
+    data = generate_sequence(sc, cfg)
+    return _normalise(data.slope_x + 0.7 * data.slope_y), sc.camera_velocity_mps, cfg.focal_px
+
+
+def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:
+    """The model holds one image scale over the frame (a level camera).  A frame whose left
+    half sees the sea from 4 m and its right half from 5.2 m (the two sides of a tilted
+    camera, exaggerated) is not trusted, and says why; the 4-m frame alone is."""
+    near, v, focal = _slope_image(4.0, 3)
+    far, _, _ = _slope_image(5.2, 3)
+    est = DispersionAltimeter(dispersion="gravity")
+    kw = {"fps": 30.0, "focal_px": focal, "velocity_mps": v}
+    level = est.estimate(near, **kw)
+    assert level.trusted, level
+    _assert_honest(level, 4.0)
+    split = near.copy()
+    split[:, :, 64:] = far[:, :, 64:]
+    res = est.estimate(split, **kw)
+    assert not res.trusted
+    assert "corner tiles" in res.reason
+
+
+def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
+    """A trusted blind fit's corner tiles are fitted at the velocity it found: they agree
+    on the level frames and not on frames whose halves show two scales."""
+    near, _, focal = _slope_image(4.0, 3, frames=30)
+    far, _, _ = _slope_image(5.2, 3, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    res = est.estimate(near, fps=30.0, focal_px=focal)
+    assert res.trusted, res
+    assert est._tile_disagreement(near, res, 30.0, focal) is None
+    split = near.copy()
+    split[:, :, 64:] = far[:, :, 64:]
+    assert "corner tiles" in est._tile_disagreement(split, res, 30.0, focal)

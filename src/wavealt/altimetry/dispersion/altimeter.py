@@ -244,6 +244,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         res = self._fit(arr, fps, focal_px, prior)
         res.mode = ("blind" if velocity_mps is None
                     else "prior" if velocity_sigma_mps > 0 else "exact")
+        if self._distrust(res) is None:
+            res.reason = self._tile_disagreement(arr, res, fps, focal_px)
         return self._judge(res)
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,

@@ -153,7 +153,8 @@ class _Spectra:
     # -- whitened periodogram ----------------------------------------------------------------
     def _periodogram(self, signal: np.ndarray, corners: bool = True,
                      carried: np.ndarray | None = None,
-                     like: dict[str, Any] | None = None) -> dict[str, Any]:
+                     like: dict[str, Any] | None = None,
+                     max_modes: int | None = None) -> dict[str, Any]:
         """Per spatial mode, the share of its temporal energy one travelling wave explains,
         tabulated over the phase step per frame.
 
@@ -182,7 +183,8 @@ class _Spectra:
         the water carries without dispersion (foam); its content is removed first
         (:meth:`_share_table`) and ``p["carried"]`` records it.  ``like``: a periodogram of
         the same ``signal`` on the same tiles, whose mode series (``p["_series"]``) are
-        taken instead of transforming the tiles again.
+        taken instead of transforming the tiles again.  ``max_modes``: at most this many modes
+        (default ``self.max_modes``).
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
@@ -198,7 +200,8 @@ class _Spectra:
         series = None
         if like is not None and like["corners"] == corners and like["frames"] == t:
             series = like.get("_series")
-        q, kx, ky, kappa, series = self._share_table(parts, basis, denom, self.max_modes,
+        limit = self.max_modes if max_modes is None else max_modes
+        q, kx, ky, kappa, series = self._share_table(parts, basis, denom, limit,
                                                      carried, series)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
                 "tile": parts[0].shape[1:], "carried": carried, "_series": series}

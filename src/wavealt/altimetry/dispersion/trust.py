@@ -22,10 +22,12 @@ from wavealt.altimetry.dispersion.constants import (
     RESOLUTION_FRACTION,
     SCAN_PROMINENCE,
     SD_FLOOR_LOG,
+    TILE_AGREEMENT_SIGMAS,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, null_score
+from wavealt.altimetry.dispersion.spectra import _corners
 
 
 class _Trust:
@@ -187,6 +189,48 @@ class _Trust:
         if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
             return "at the edge of the altitude range searched"
         return res.reason
+
+    def _tile_disagreement(self, arr: np.ndarray, res: DispersionResult, fps: float,
+                           focal_px: float) -> str | None:
+        """Why the four corner tiles contradict a fit that passes the other trust tests
+        (:meth:`_distrust`), None where they do not.
+
+        The model holds one image scale over the frame: a camera looking straight down at a
+        level sea.  A tilted camera sees the sea farther away on one side of the frame than
+        on the other, and its fit reads an average of the scales, high by up to twice the
+        tilt's range factor (realistic preset, 10-15 degrees of tilt ignored, velocity
+        known: +10 to +19 %, at 1.4-2.9 % uncertainty).  Each corner tile is fitted alone, at
+        the fit's velocity (m/s; the tile's own altitude scales it to pixels), with the
+        aided search of :meth:`_aided`; where two tiles whose fits pass the trust tests
+        differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined uncertainty in log
+        altitude, the frame's scale is not one, and the altitude is not trusted.  ``arr``:
+        the checked frames; the tiles are taken of the signal the fit used."""
+        kind = (res.signal or "luma").split("/")[0]
+        signal = (self._chroma(arr, self._colour(arr)[0]) if kind == "chroma"
+                  else self._luma(arr))
+        t = signal.shape[0]
+        fits = []
+        for tile in _corners(signal, self.corner_tiles or 0.4):
+            if float(np.mean(np.var(tile[:, ::4, ::4], axis=0))) <= 1e-12:
+                continue
+            # a quarter of the modes: the tile holds a quarter of the corners' data
+            p = self._periodogram(tile, corners=False, max_modes=max(self.max_modes // 4, 8))
+            if p["kappa"].size < 12:
+                continue
+            r = self._aided(p, t, fps, focal_px, res.camera_velocity_mps)
+            if self._distrust(r) is None:
+                fits.append((math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
+        worst, apart = 0.0, 0.0
+        for i, (a, sa) in enumerate(fits):
+            for b, sb in fits[i + 1:]:
+                z = abs(a - b) / max(math.hypot(sa, sb), 1e-12)
+                if z > worst:
+                    worst, apart = z, abs(a - b)
+        if worst <= TILE_AGREEMENT_SIGMAS:
+            return None
+        return (f"the corner tiles' altitudes differ by {100 * math.expm1(apart):.0f} % "
+                f"({worst:.1f} sigma): the image scale is not one over the frame (a tilted "
+                f"camera: give its attitude)")
 
     def _standing(self, res: DispersionResult) -> tuple[bool, bool, float]:
         """Order of two fits of one window: trusted first, then significant, then graded."""

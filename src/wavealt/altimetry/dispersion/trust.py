@@ -201,9 +201,11 @@ class _Trust:
         tilt's range factor (realistic preset, 10-15 degrees of tilt ignored, velocity
         known: +10 to +19 %, at 1.4-2.9 % uncertainty).  Each corner tile is fitted alone, at
         the fit's velocity (m/s; the tile's own altitude scales it to pixels), with the
-        aided search of :meth:`_aided`; where two tiles whose fits pass the trust tests
-        differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined uncertainty in log
-        altitude, the frame's scale is not one, and the altitude is not trusted.  ``arr``:
+        aided search of :meth:`_aided` on a quarter of the modes; where two tiles whose fits
+        hold a shell's peak (significant and prominent, as :meth:`_distrust` asks, however
+        wide their interval) differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined
+        uncertainty in log altitude, the frame's scale is not one, and the altitude is not
+        trusted.  ``arr``:
         the checked frames; the tiles are taken of the signal the fit used."""
         kind = (res.signal or "luma").split("/")[0]
         signal = (self._chroma(arr, self._colour(arr)[0]) if kind == "chroma"
@@ -218,7 +220,9 @@ class _Trust:
             if p["kappa"].size < 12:
                 continue
             r = self._aided(p, t, fps, focal_px, res.camera_velocity_mps)
-            if self._distrust(r) is None:
+            # a shell's peak (significant and prominent), however wide its interval: the
+            # test below weighs each tile by its own uncertainty
+            if r.significance >= MIN_SIGNIFICANCE and r.quality >= TRUSTED_QUALITY:
                 fits.append((math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
         worst, apart = 0.0, 0.0
         for i, (a, sa) in enumerate(fits):

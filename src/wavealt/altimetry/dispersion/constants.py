@@ -114,9 +114,13 @@ MAX_TRUSTED_3SIGMA = 0.10
 #: interval.  Realistic preset, velocity known, 10 frames, tuning seed 101, 0-15 degrees of
 #: tilt ignored: all 11 trusted windows more than 10 % off exceed it (2 were left when only
 #: tiles passing the whole trust test counted), and most of those within 10 %, read high by
-#: the tilt; level tuning windows: 8 of 240 realistic exact 10-frame ones (whose camera the
+#: the tilt; level tuning windows: 4 of 240 realistic exact 10-frame ones (whose camera the
 #: preset tilts up to 3 degrees), none of 240 paper ones, 7 of 640 blind 1-s ones.
 TILE_AGREEMENT_SIGMAS = 3.0
+#: The corner tiles of :meth:`_tile_disagreement` are searched within this factor of the
+#: fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 % (realistic
+#: preset, 60 degrees of view), and a tile's peak twice as far is not the shell.
+TILE_RANGE_FACTOR = 2.0
 #: Least significance of the shell's peak: its score above the mean that random phase
 #: steps would give, in units of that score's standard deviation (each mode's share
 #: averaged over all phase steps; :meth:`DispersionAltimeter._result`).  Uniform RGB noise,

@@ -3,6 +3,7 @@ prominence and significance, and the decision whether a result may be used."""
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Any
 
@@ -23,6 +24,7 @@ from wavealt.altimetry.dispersion.constants import (
     SCAN_PROMINENCE,
     SD_FLOOR_LOG,
     TILE_AGREEMENT_SIGMAS,
+    TILE_RANGE_FACTOR,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -205,12 +207,23 @@ class _Trust:
         hold a shell's peak (significant and prominent, as :meth:`_distrust` asks, however
         wide their interval) differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined
         uncertainty in log altitude, the frame's scale is not one, and the altitude is not
-        trusted.  ``arr``:
-        the checked frames; the tiles are taken of the signal the fit used."""
+        trusted.  A tile is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a
+        tilt within the tool's reach moves a tile's scale by far less, and a peak beyond is
+        not the shell.  ``arr``: the checked frames; the tiles are taken of the signal the
+        fit used."""
         kind = (res.signal or "luma").split("/")[0]
         signal = (self._chroma(arr, self._colour(arr)[0]) if kind == "chroma"
                   else self._luma(arr))
         t = signal.shape[0]
+        # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
+        # grid as the whole range's
+        lo, hi = self.altitude_range_m
+        near = copy.copy(self)
+        near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
+                                 min(hi, res.altitude_m * TILE_RANGE_FACTOR))
+        near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
+                                                          / near.altitude_range_m[0])
+                                   / math.log(hi / lo)))
         fits = []
         for tile in _corners(signal, self.corner_tiles or 0.4):
             if float(np.mean(np.var(tile[:, ::4, ::4], axis=0))) <= 1e-12:
@@ -219,7 +232,7 @@ class _Trust:
             p = self._periodogram(tile, corners=False, max_modes=max(self.max_modes // 4, 8))
             if p["kappa"].size < 12:
                 continue
-            r = self._aided(p, t, fps, focal_px, res.camera_velocity_mps)
+            r = near._aided(p, t, fps, focal_px, res.camera_velocity_mps)
             # a shell's peak (significant and prominent), however wide its interval: the
             # test below weighs each tile by its own uncertainty
             if r.significance >= MIN_SIGNIFICANCE and r.quality >= TRUSTED_QUALITY:

@@ -68,6 +68,12 @@ PAIRED_BAND_SD_FRACTION = 0.67
 #: realistic prior row (10 frames, seed 23) and the 15-frame row on uncompressed frames
 #: (seed 31) each had a window read +10 to +12 % and trusted with the band alone.
 BAND_CALIBRATED_MIN_FRAMES = 30
+#: On clips shorter than ``BAND_CALIBRATED_MIN_FRAMES`` the band's fraction grows as
+#: ``(BAND_CALIBRATED_MIN_FRAMES / T) ** BAND_SHORT_CLIP_POWER``: split by length, the 68th
+#: percentile of |log error| / half-width is 0.98 (JPEG) and 1.11 (uncompressed) at 15 frames
+#: (tuning seeds 101/202), and 0.67 x 2^0.58 = 1.0.  The periodogram's bin (power 1) gave
+#: 1.34, which left 0.02-0.07 of the 15-frame JPEG windows trusted (0.12-0.17 before).
+BAND_SHORT_CLIP_POWER = 0.58
 #: The blind profile's peak is refined (velocity and altitude, :meth:`_fit_blind`) on the
 #: modes of at least this wavenumber, rad/px (a fifth of the Nyquist wavenumber), or on all
 #: modes where fewer than ``MIN_REFINE_MODES`` are that short.  Near the bottom of the band

@@ -11,6 +11,7 @@ import numpy as np
 
 from wavealt.altimetry.dispersion.constants import (
     BAND_CALIBRATED_MIN_FRAMES,
+    BAND_SHORT_CLIP_POWER,
     BLIND_SD_FLOOR_LOG,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
@@ -102,7 +103,10 @@ class _Trust:
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         spread = float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
-        band = PAIRED_BAND_SD_FRACTION * fit["band_log"] if profile else 0.0
+        # the band's part of a standard deviation grows on shorter clips
+        band = (PAIRED_BAND_SD_FRACTION
+                * max(1.0, BAND_CALIBRATED_MIN_FRAMES / t) ** BAND_SHORT_CLIP_POWER
+                * fit["band_log"] if profile else 0.0)
         if t >= BAND_CALIBRATED_MIN_FRAMES:
             # on a flat ridge a small bias moves the peak far: the paired band's width, a
             # whole uncertainty of its own (its fraction is set so that it alone covers

@@ -301,7 +301,7 @@ def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     est = DispersionAltimeter(dispersion="gravity")
     res = est.estimate(near, fps=30.0, focal_px=focal)
     assert res.trusted, res
-    assert est._tile_disagreement(near, res, 30.0, focal) is None
+    assert est._tile_disagreement(est._luma(near), res, 30.0, focal) is None
     split = near.copy()
     split[:, :, 64:] = far[:, :, 64:]
-    assert "corner tiles" in est._tile_disagreement(split, res, 30.0, focal)
+    assert "corner tiles" in est._tile_disagreement(est._luma(split), res, 30.0, focal)

@@ -18,6 +18,7 @@ from wavealt.altimetry.dispersion.constants import (
     CHROMA_CHECK_QUALITY,
     DEGLINTS,
     DISPERSIONS,
+    MIN_FIT_MODES,
     MIN_FRAMES,
     PRIOR_SIGMAS,
     SIGNALS,
@@ -241,17 +242,18 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
-        res = self._fit(arr, fps, focal_px, prior)
+        res, signal = self._fit(arr, fps, focal_px, prior)
         res.mode = ("blind" if velocity_mps is None
                     else "prior" if velocity_sigma_mps > 0 else "exact")
         if self._distrust(res) is None:
-            res.reason = self._tile_disagreement(arr, res, fps, focal_px)
+            res.reason = self._tile_disagreement(signal, res, fps, focal_px)
         return self._judge(res)
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
-             prior: tuple[float, float, float] | None) -> DispersionResult:
-        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`); ``prior``:
-        the camera's velocity ``(vx, vy)`` and its sigma (0: exact), None for blind."""
+             prior: tuple[float, float, float] | None) -> tuple[DispersionResult, np.ndarray]:
+        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`), and the
+        scalar sequence it was made of; ``prior``: the camera's velocity ``(vx, vy)`` and its
+        sigma (0: exact), None for blind."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
@@ -265,16 +267,19 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                 # preset, tuning seed 101, clean).  Blind fits grade lower, their profile being
                 # broader, so they are not held to 0.85: that fitted both signals on most
                 # 30-frame glinty windows, 0.54 -> 1.2 s each, for no gain (1.34 -> 1.40 %).
-                res = self._fit_signal(self._chroma(arr, weights), "chroma", fps, focal_px,
-                                       prior)
+                chroma = self._chroma(arr, weights)
+                res = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
                 exact = prior is not None and prior[2] == 0
                 if (self._distrust(res) is None
                         and (not exact or res.quality >= CHROMA_CHECK_QUALITY)):
-                    return res
-                alt = self._fit_signal(self._luma(arr), "luma", fps, focal_px, prior)
-                return alt if self._standing(alt) >= self._standing(res) else res
-        return self._fit_signal(*self._signal(arr), fps=fps, focal_px=focal_px,
-                                prior=prior)
+                    return res, chroma
+                luma = self._luma(arr)
+                alt = self._fit_signal(luma, "luma", fps, focal_px, prior)
+                if self._standing(alt) >= self._standing(res):
+                    return alt, luma
+                return res, chroma
+        signal, kind = self._signal(arr)
+        return self._fit_signal(signal, kind, fps, focal_px, prior), signal
 
     def _fit_signal(self, signal: np.ndarray, kind: str, fps: float, focal_px: float,
                     prior: tuple[float, float, float] | None) -> DispersionResult:
@@ -289,10 +294,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         """Exact, prior or blind fit to one scalar sequence (:meth:`estimate`); a result from
         the whole frame rather than the corner tiles says ``signal="full"``."""
         t = signal.shape[0]
-        if float(np.mean(np.var(signal[:, ::4, ::4], axis=0))) <= 1e-12:
-            return self._failed(t)
-        p = self._periodogram(signal)
-        if p["kappa"].size < 12:
+        p = self._fit_periodogram(signal)
+        if p is None:
             return self._failed(t)
         if prior is not None and prior[2] == 0:
             res = self._aided(p, t, fps, focal_px, prior[:2])
@@ -312,7 +315,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             if self._distrust(spread) is None:
                 return spread
         m = self._modes(signal)
-        start = self._phase_step_fit(m, fps, focal_px) if m["kappa"].size >= 12 else {}
+        start = (self._phase_step_fit(m, fps, focal_px) if m["kappa"].size >= MIN_FIT_MODES
+                 else {})
         if not start:
             return self._failed(t) if prior is None else spread
         if prior is None:

@@ -86,6 +86,8 @@ BAND_SHORT_CLIP_POWER = 0.58
 #: +0.98 %; 0.4 / 0.8 / 1.0 rad/px gave +1.15 % and median errors like 0.6's.
 BLIND_REFINE_MIN_KAPPA = 0.6
 MIN_REFINE_MODES = 64
+#: Fewest modes a periodogram or a phase-step start must hold for a fit to be tried on it.
+MIN_FIT_MODES = 12
 #: A mode group's own peak along the blind profile is looked for within this distance, in
 #: log altitude, of the estimate (x0.61 .. x1.65); a group with no peak there counts at its
 #: highest point, which widens the spread (:meth:`DispersionAltimeter._result`).

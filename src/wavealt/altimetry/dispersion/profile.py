@@ -30,6 +30,7 @@ from wavealt.altimetry.dispersion.search import (
     null_score,
     null_sd,
     peak_prominences,
+    significance,
 )
 from wavealt.altimetry.dispersion.velocity_map import _VelocityMap
 
@@ -203,9 +204,7 @@ class _Profile(_VelocityMap):
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
         # the profile's noise: the sd of its score under random phase steps
         noise = null_sd(p, sub)
-        null_mean, null_spread = null_score(p)
-        z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_spread, 1e-30)
-        return {"logh": logh, "u": u, "z": z, "scan": scan, "interior": interior,
+        return {"logh": logh, "u": u, "z": significance(p, vals), "scan": scan, "interior": interior,
                 "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge),
                 "band_log": paired_band(grid, ridge, i)}

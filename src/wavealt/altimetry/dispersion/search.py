@@ -269,6 +269,13 @@ class _Search:
                 "interior": interior, "prominence": prominence, "local": local, "vals": vals}
 
 
+def significance(p: dict[str, Any], vals: np.ndarray) -> float:
+    """How far the best row of per-mode values ``vals`` ``(candidates, modes)`` scores above
+    random phase steps, in standard deviations of the score (:func:`null_score`)."""
+    null_mean, null_spread = null_score(p)
+    return (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_spread, 1e-30)
+
+
 def null_score(p: dict[str, Any]) -> tuple[float, float]:
     """Mean and standard deviation of the score (the mean share over all modes) under
     random phase steps: each mode's share averaged over all phase steps gives its mean and

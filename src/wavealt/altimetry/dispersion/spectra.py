@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import scipy.fft
 
-from wavealt.altimetry.dispersion.constants import STATIC_NORM_FRACTION
+from wavealt.altimetry.dispersion.constants import MIN_FIT_MODES, STATIC_NORM_FRACTION
 
 
 def _wrap(phase: np.ndarray) -> np.ndarray:
@@ -151,6 +151,15 @@ class _Spectra:
         }
 
     # -- whitened periodogram ----------------------------------------------------------------
+    def _fit_periodogram(self, signal: np.ndarray, **kw: Any) -> dict[str, Any] | None:
+        """:meth:`_periodogram` (``kw``) of a scalar sequence a fit can be tried on; None
+        where none can: no pixel changes over the clip (on a subsample), or fewer than
+        ``MIN_FIT_MODES`` modes."""
+        if float(np.mean(np.var(signal[:, ::4, ::4], axis=0))) <= 1e-12:
+            return None
+        p = self._periodogram(signal, **kw)
+        return p if p["kappa"].size >= MIN_FIT_MODES else None
+
     def _periodogram(self, signal: np.ndarray, corners: bool = True,
                      carried: np.ndarray | None = None,
                      like: dict[str, Any] | None = None,

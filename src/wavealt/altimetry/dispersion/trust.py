@@ -29,7 +29,7 @@ from wavealt.altimetry.dispersion.constants import (
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
-from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, null_score
+from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, significance
 from wavealt.altimetry.dispersion.spectra import _corners
 
 
@@ -117,8 +117,7 @@ class _Trust:
             sd_logh = math.hypot(spread, max(floor, band))
         # significance of the peak against random phase steps: each mode's share averaged
         # over all phase steps (its mean and variance) gives the score's null distribution
-        null_mean, null_sd = null_score(p)
-        z = (float(np.max(vals.mean(axis=1))) - null_mean) / max(null_sd, 1e-30)
+        z = significance(p, vals)
         # The wave shell of a real sea stands out of the scan as a prominent peak; textures
         # without dispersion (noise, frozen or carried patterns) make at most small bumps on
         # a scan that rises toward the edge of the range.
@@ -196,7 +195,7 @@ class _Trust:
             return "at the edge of the altitude range searched"
         return res.reason
 
-    def _tile_disagreement(self, arr: np.ndarray, res: DispersionResult, fps: float,
+    def _tile_disagreement(self, signal: np.ndarray, res: DispersionResult, fps: float,
                            focal_px: float) -> str | None:
         """Why the four corner tiles contradict a fit that passes the other trust tests
         (:meth:`_distrust`), None where they do not.
@@ -213,11 +212,7 @@ class _Trust:
         uncertainty in log altitude, the frame's scale is not one, and the altitude is not
         trusted.  A tile is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a
         tilt within the tool's reach moves a tile's scale by far less, and a peak beyond is
-        not the shell.  ``arr``: the checked frames; the tiles are taken of the signal the
-        fit used."""
-        kind = (res.signal or "luma").split("/")[0]
-        signal = (self._chroma(arr, self._colour(arr)[0]) if kind == "chroma"
-                  else self._luma(arr))
+        not the shell.  ``signal``: the scalar sequence the fit was made of."""
         t = signal.shape[0]
         # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
         # grid as the whole range's
@@ -230,11 +225,10 @@ class _Trust:
                                    / math.log(hi / lo)))
         fits = []
         for tile in _corners(signal, self.corner_tiles or 0.4):
-            if float(np.mean(np.var(tile[:, ::4, ::4], axis=0))) <= 1e-12:
-                continue
             # a quarter of the modes: the tile holds a quarter of the corners' data
-            p = self._periodogram(tile, corners=False, max_modes=max(self.max_modes // 4, 8))
-            if p["kappa"].size < 12:
+            p = self._fit_periodogram(tile, corners=False,
+                                      max_modes=max(self.max_modes // 4, 8))
+            if p is None:
                 continue
             r = near._aided(p, t, fps, focal_px, res.camera_velocity_mps)
             # a shell's peak (significant and prominent), however wide its interval: the

@@ -11,7 +11,8 @@ in a random direction.  The radiance along every ray is the renderer's own (its 
 and glint depend on the ray, not on the camera's orientation); the sensor's noise and JPEG
 were applied in the level render and are resampled with it.  Altitude 1-15 m, wind 2-12 m/s,
 the water 0-1 m/s relative to the camera, 10 frames at 30 fps, the velocity known (exact
-mode; ``--mode blind --frames 30``: no velocity, a 1-s clip).  Target (issue 17): relative MAE with the attitude known no worse than 1.5 x nadir.
+mode; ``--mode blind --frames 30``: no velocity, a 1-s clip).  Target (issue 17): relative
+MAE with the attitude known no worse than 1.5 x nadir.
 Prints (and with ``--out`` writes) one JSON object.
 """
 

@@ -78,7 +78,6 @@ from wavealt.altimetry.dispersion.altimeter import (  # noqa: F401
     estimate_altitude,
 )
 from wavealt.altimetry.dispersion.constants import (  # noqa: F401
-    CHROMA_CHECK_QUALITY,
     DEGLINTS,
     DISPERSIONS,
     EDGE_FACTOR,

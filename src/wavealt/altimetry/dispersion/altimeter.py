@@ -11,11 +11,11 @@ import numpy as np
 from wavealt._checks import check_choice, check_finite_number, check_frames
 from wavealt.altimetry.dispersion.constants import (
     BLIND_MAP_KAPPA,
+    BLOCK_CODED_MIN_EXCESS,
     CARRIED_CHECKED_MATCH_PX,
     CARRIED_CHECKED_MIN_RATIO,
     CARRIED_MATCH_BINS,
     CARRIED_MIN_RATIO,
-    CHROMA_CHECK_QUALITY,
     DEGLINTS,
     DISPERSIONS,
     MIN_FIT_MODES,
@@ -29,7 +29,7 @@ from wavealt.altimetry.dispersion.kernel import use_compiled
 from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
-from wavealt.altimetry.dispersion.signal import _has_texture, _Signal
+from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, block_excess
 from wavealt.altimetry.dispersion.spectra import _Spectra
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
@@ -91,15 +91,14 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         chroma, from which white content (glint, saturation, foam) drops out.  ``"auto"``
         (the default) fits the chroma of colour frames whose colour explains less than
         ``glint_r2`` of the luminance's variance (white glint dominates the luminance), and
-        the luminance too where that fit fails a trust test (or, velocity known, grades
-        below ``CHROMA_CHECK_QUALITY``), keeping the fit that passes more of the tests; or
-        the luminance alone where the colour explains more.  Paper renderer, 10 frames, aided, 2 x 100
-        scenes (seeds 7 and 11), relative MAE glinty 3.25 / 2.38 % with the luminance
-        alone, 1.46 / 1.78 % auto (before the corner tiles); clean unchanged.  The realistic
-        preset's chroma carries colour content that does not follow the waves (chroma
-        alone: 127 % clean): most such fits flag themselves, and the check against the
-        luminance catches those that do not (40 scenes, 10 frames, clean: three confident
-        errors of -59 to +23 % -> one of -16 %, which the luminance makes too).
+        the luminance too where that fit fails a trust test, keeping the fit that passes
+        more of the tests; or the luminance alone where the colour explains more, or where
+        the chroma shows a block coder's lattice (:func:`~.signal.block_excess`,
+        ``BLOCK_CODED_MIN_EXCESS``: JPEG and MPEG quantise the chroma coarsely on 8-px
+        blocks, and the lattice mixes the short waves into false shells in it).  Paper
+        renderer, 10 frames, aided, 2 x 100 scenes (seeds 7 and 11), relative MAE glinty
+        3.25 / 2.38 % with the luminance alone, 1.46 / 1.78 % auto (before the corner
+        tiles); clean unchanged.
     glint_r2 : float
         ``"auto"`` fits the chroma first when the squared correlation of luminance and
         chroma over the frame's pixels is below this.  White glint adds to the luminance and
@@ -259,25 +258,23 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             if r2 < self.glint_r2:
                 # The colour explains little of the luminance: white content (glint) that the
                 # luminance's clip leaves in.  The chroma is free of it; a chroma fit that
-                # passes every trust test stands (an exact one must also grade at least
-                # CHROMA_CHECK_QUALITY: the realistic preset's chroma holds colour content that
-                # does not follow the waves).  Else the luminance's fit is tried and the one
-                # that passes more of the tests (then the better graded) kept: a chroma fit
-                # graded 0.85-0.86 below the significance bar read 0.5 m for 3.7 m (realistic
-                # preset, tuning seed 101, clean).  Blind fits grade lower, their profile being
-                # broader, so they are not held to 0.85: that fitted both signals on most
-                # 30-frame glinty windows, 0.54 -> 1.2 s each, for no gain (1.34 -> 1.40 %).
+                # passes every trust test stands.  Else the luminance's fit is tried and the
+                # one that passes more of the tests (then the better graded) kept.  A chroma
+                # that a block coder's lattice marks (BLOCK_CODED_MIN_EXCESS) is not fitted:
+                # the coder quantises it coarsely on its 8-px blocks, which mix the short
+                # waves into false shells far below the truth (the realistic preset's JPEG
+                # chroma read 13.5 m as 1.06 m, trusted; docs/dispersion.md, sixteenth
+                # session), and the luminance is fitted alone.
                 chroma = self._chroma(arr, weights)
-                res = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
-                exact = prior is not None and prior[2] == 0
-                if (self._distrust(res) is None
-                        and (not exact or res.quality >= CHROMA_CHECK_QUALITY)):
+                if block_excess(chroma) <= BLOCK_CODED_MIN_EXCESS:
+                    res = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
+                    if self._distrust(res) is None:
+                        return res, chroma
+                    luma = self._luma(arr)
+                    alt = self._fit_signal(luma, "luma", fps, focal_px, prior)
+                    if self._standing(alt) >= self._standing(res):
+                        return alt, luma
                     return res, chroma
-                luma = self._luma(arr)
-                alt = self._fit_signal(luma, "luma", fps, focal_px, prior)
-                if self._standing(alt) >= self._standing(res):
-                    return alt, luma
-                return res, chroma
         signal, kind = self._signal(arr)
         return self._fit_signal(signal, kind, fps, focal_px, prior), signal
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from wavealt._checks import check_choice
-from wavealt.altimetry.dispersion.constants import DEGLINTS, MAD_TO_SD
+from wavealt.altimetry.dispersion.constants import BLOCK_PERIOD_PX, DEGLINTS, MAD_TO_SD
 
 
 def _to_gray(frames: np.ndarray) -> np.ndarray:
@@ -49,6 +49,29 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float,
     if mad <= 0:
         return signal
     return np.clip(signal, med - n_sigma * mad, med + n_sigma * mad, out=signal)
+
+
+def block_excess(signal: np.ndarray, period: int = BLOCK_PERIOD_PX) -> float:
+    """How strongly a block coder's lattice shows in ``(T, H, W)`` ``signal``: along each
+    axis, the mean absolute difference between neighbouring pixels at each phase of the
+    ``period``-px lattice (every third frame), the highest phase's excess over the median
+    phase, relative to it; the smaller of the two axes (a coder's blocks step both ways; a
+    texture that repeats every ``period`` px along one axis does not make both).  0 for a
+    signal that no lattice touches; the chroma of JPEG-coded frames: 0.3 and more
+    (``BLOCK_CODED_MIN_EXCESS``).  Frames smaller than two periods give 0."""
+    frames = signal[:: 3] if signal.shape[0] >= 9 else signal
+    excess = []
+    for axis in (2, 1):
+        n = (frames.shape[axis] - 1) // period * period
+        if n < 2 * period:
+            return 0.0
+        steps = np.abs(np.diff(frames, axis=axis)).mean(axis=(0, 3 - axis), dtype=np.float64)
+        phase = steps[:n].reshape(-1, period).mean(axis=0)
+        mid = float(np.median(phase))
+        if mid <= 0.0:
+            return 0.0
+        excess.append((float(phase.max()) - mid) / mid)
+    return min(excess)
 
 
 def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0,

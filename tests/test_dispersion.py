@@ -505,20 +505,13 @@ def test_auto_signal_measures_white_glint_through_the_chroma() -> None:
 
 
 def _jpeg(frames: np.ndarray, quality: int = 90, shift: int = 0) -> np.ndarray:
-    """Each ``(H, W, 3)`` frame in [0, 1] through Pillow's JPEG coder (4:2:0, as cameras
-    code), decoded; ``shift`` px cropped off the top and left after decoding (the block
-    lattice then starts elsewhere)."""
-    import io
+    """``(T, H, W, 3)`` frames in [0, 1] through the simulator's JPEG coder (Pillow's, 4:2:0,
+    as cameras code), decoded; ``shift`` px cropped off the top and left after decoding (the
+    block lattice then starts elsewhere)."""
+    from wavealt.sim.sensor import _jpeg as jpeg_coder
 
-    from PIL import Image
-
-    out = []
-    for f in frames:
-        buf = io.BytesIO()
-        Image.fromarray(np.clip(np.rint(f * 255.0), 0, 255).astype(np.uint8)).save(
-            buf, format="JPEG", quality=quality)
-        out.append(np.asarray(Image.open(io.BytesIO(buf.getvalue())).convert("RGB")))
-    return (np.stack(out)[:, shift:, shift:] / 255.0).astype(np.float32)
+    coded = jpeg_coder(np.clip(np.rint(frames * 255.0), 0, 255).astype(np.uint8), quality)
+    return (coded[:, shift:, shift:] / 255.0).astype(np.float32)
 
 
 def _coloured_waves(size: int = 96, frames: int = 10, glint: float = 0.0

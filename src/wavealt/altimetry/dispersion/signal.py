@@ -54,18 +54,20 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float,
 def block_excess(signal: np.ndarray, period: int = BLOCK_PERIOD_PX) -> float:
     """How strongly a block coder's lattice shows in ``(T, H, W)`` ``signal``: along each
     axis, the mean absolute difference between neighbouring pixels at each phase of the
-    ``period``-px lattice (every third frame), the highest phase's excess over the median
-    phase, relative to it; the smaller of the two axes (a coder's blocks step both ways; a
-    texture that repeats every ``period`` px along one axis does not make both).  0 for a
-    signal that no lattice touches; the chroma of JPEG-coded frames: 0.3 and more
-    (``BLOCK_CODED_MIN_EXCESS``).  Frames smaller than two periods give 0."""
-    frames = signal[:: 3] if signal.shape[0] >= 9 else signal
+    ``period``-px lattice (every third frame of a clip of nine or more), the highest
+    phase's excess over the median phase, relative to it; the smaller of the two axes (a
+    coder's blocks step both ways; a texture that repeats every ``period`` px along one axis
+    does not make both).  0 for a signal that no lattice touches; the chroma of JPEG-coded
+    frames: 0.3 and more (``BLOCK_CODED_MIN_EXCESS``).  Frames smaller than two periods
+    give 0."""
+    frames = signal[::3] if signal.shape[0] >= 9 else signal
     excess = []
-    for axis in (2, 1):
+    # columns (steps along x, averaged over frames and rows), then rows
+    for axis, across in ((2, (0, 1)), (1, (0, 2))):
         n = (frames.shape[axis] - 1) // period * period
         if n < 2 * period:
             return 0.0
-        steps = np.abs(np.diff(frames, axis=axis)).mean(axis=(0, 3 - axis), dtype=np.float64)
+        steps = np.abs(np.diff(frames, axis=axis)).mean(axis=across, dtype=np.float64)
         phase = steps[:n].reshape(-1, period).mean(axis=0)
         mid = float(np.median(phase))
         if mid <= 0.0:

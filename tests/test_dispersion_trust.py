@@ -16,6 +16,8 @@ from wavealt.altimetry.dispersion import (
     DispersionAltimeter,
     DispersionResult,
 )
+from wavealt.altimetry.dispersion.constants import TILE_SCATTER_LEVEL
+from wavealt.altimetry.dispersion.trust import tile_scatter
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
 
@@ -305,3 +307,29 @@ def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     split = near.copy()
     split[:, :, 64:] = far[:, :, 64:]
     assert "corner tiles" in est._tile_disagreement(est._luma(split), res, 30.0, focal)
+
+
+def test_tile_scatter_is_the_variance_beyond_the_tiles_noise() -> None:
+    """Cochran's Q of two estimates 0.2 apart at sd 0.05 is 8, above the chi-square(1)
+    quantile at the 10 % level (2.71): the DerSimonian-Laird tau^2 is (8 - 1) / (800 - 400).
+    0.1 apart (Q = 2) is within the tiles' noise; one estimate, or agreeing ones, none."""
+    assert tile_scatter([(0.0, 0.05), (0.2, 0.05)]) == pytest.approx(np.sqrt(7.0 / 400.0))
+    assert tile_scatter([(0.0, 0.05), (0.1, 0.05)]) == 0.0
+    assert tile_scatter([(1.3, 0.02)] * 4) == 0.0
+    assert tile_scatter([(1.3, 0.02)]) == 0.0
+    # the weights are the tiles' own: a precise tile far from an imprecise one scatters less
+    # than two precise ones as far apart
+    assert 0.0 < tile_scatter([(0.0, 0.02), (0.2, 0.08)]) < tile_scatter([(0.0, 0.02),
+                                                                          (0.2, 0.02)])
+
+
+def test_tile_scatter_fires_at_its_level_on_tiles_that_share_one_scale() -> None:
+    """Tiles that share one altitude, each off by its own uncertainty (2 to 4 tiles, sd 1 to
+    15 %): tau > 0 in TILE_SCATTER_LEVEL of the windows, not more."""
+    rng = np.random.default_rng(5)
+    fired = []
+    for _ in range(4000):
+        k = int(rng.integers(2, 5))
+        sd = rng.uniform(0.01, 0.15, k)
+        fired.append(tile_scatter(list(zip(1.5 + sd * rng.normal(size=k), sd))) > 0.0)
+    assert abs(np.mean(fired) - TILE_SCATTER_LEVEL) < 0.015

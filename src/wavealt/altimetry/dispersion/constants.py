@@ -125,6 +125,16 @@ MAX_TRUSTED_3SIGMA = 0.10
 #: the tilt; level tuning windows: 4 of 240 realistic exact 10-frame ones (whose camera the
 #: preset tilts up to 3 degrees), none of 240 paper ones, 7 of 640 blind 1-s ones.
 TILE_AGREEMENT_SIGMAS = 3.0
+#: Test level at which the corner tiles' altitudes scatter beyond their own uncertainties
+#: (Cochran's Q against the chi-square quantile, :func:`~.trust.tile_scatter`); where they
+#: do, the scatter beyond the noise (DerSimonian-Laird tau) joins the fit's uncertainty, so
+#: a frame whose scale is not one is not trusted on its fit's sigma alone.  Realistic preset,
+#: velocity known, 10 frames, tuning seeds 101 and 202, 0-15 degrees of tilt ignored: the
+#: two trusted windows more than 10 % off (+12.9, +23.6 %), whose tile pairs differed by
+#: 2.2 sigma at most, are no longer trusted; the same scenes level and with the attitude
+#: known keep their trusted share (0.55-0.72).  Always adding tau (no test) cost the level
+#: scenes 2-4 points of trusted share for the same effect.
+TILE_SCATTER_LEVEL = 0.1
 #: The corner tiles of :meth:`_tile_disagreement` are searched within this factor of the
 #: fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 % (realistic
 #: preset, 60 degrees of view), and a tile's peak twice as far is not the shell.

@@ -8,6 +8,7 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.special import gammainccinv
 
 from wavealt.altimetry.dispersion.constants import (
     BAND_CALIBRATED_MIN_FRAMES,
@@ -26,6 +27,7 @@ from wavealt.altimetry.dispersion.constants import (
     SD_FLOOR_LOG,
     TILE_AGREEMENT_SIGMAS,
     TILE_RANGE_FACTOR,
+    TILE_SCATTER_LEVEL,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -190,7 +192,8 @@ class _Trust:
         if res.quality < TRUSTED_QUALITY:
             return res.reason or "no prominent wave-shell peak"
         if rel3 > math.log1p(MAX_TRUSTED_3SIGMA):
-            return f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
+            # a reason that widened the interval (the tiles' scatter) says more
+            return res.reason or f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
         if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
             return "at the edge of the altitude range searched"
         return res.reason
@@ -210,7 +213,9 @@ class _Trust:
         hold a shell's peak (significant and prominent, as :meth:`_distrust` asks, however
         wide their interval) differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined
         uncertainty in log altitude, the frame's scale is not one, and the altitude is not
-        trusted.  A tile is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a
+        trusted.  Where the tiles together scatter more than their uncertainties allow
+        (:func:`tile_scatter`), the scatter joins the fit's uncertainty (in place, in
+        ``res``), and a fit whose interval then fails the trust bar is not trusted.  A tile is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a
         tilt within the tool's reach moves a tile's scale by far less, and a peak beyond is
         not the shell.  ``signal``: the scalar sequence the fit was made of."""
         t = signal.shape[0]
@@ -235,6 +240,14 @@ class _Trust:
             # test below weighs each tile by its own uncertainty
             if r.significance >= MIN_SIGNIFICANCE and r.quality >= TRUSTED_QUALITY:
                 fits.append((math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
+        tau = tile_scatter(fits)
+        if tau > 0.0:
+            sd_log = math.hypot(res.altitude_std_m / res.altitude_m, tau)
+            res.altitude_std_m = res.altitude_m * sd_log
+            if 3.0 * sd_log > math.log1p(MAX_TRUSTED_3SIGMA):
+                return (f"the corner tiles' altitudes scatter by {100 * tau:.0f} % beyond "
+                        f"their uncertainty: the image scale is not one over the frame (a "
+                        f"tilted camera: give its attitude)")
         worst, apart = 0.0, 0.0
         for i, (a, sa) in enumerate(fits):
             for b, sb in fits[i + 1:]:
@@ -268,3 +281,24 @@ class _Trust:
             # 3-sigma interval spans the whole altitude range searched
             res.altitude_std_m = max(res.altitude_std_m, (hi - lo) / 3.0)
         return res
+
+
+def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LEVEL) -> float:
+    """The scatter of estimates ``fits`` (each ``(log altitude, sd_log)``) beyond their own
+    uncertainties, in log altitude; 0 where there is none at test level ``level``.
+
+    Random-effects meta-analysis: Cochran's ``Q = sum w (x - xbar)^2`` (``w = 1 / sd^2``,
+    ``xbar`` their weighted mean) is chi-square with ``k - 1`` degrees of freedom when the
+    estimates share one value; where ``Q`` exceeds that distribution's ``1 - level``
+    quantile, the between-estimate variance is DerSimonian and Laird's (Controlled Clinical
+    Trials 7, 1986) ``tau^2 = (Q - (k - 1)) / (sum w - sum w^2 / sum w)``.
+    """
+    if len(fits) < 2:
+        return 0.0
+    x = np.array([a for a, _ in fits])
+    w = 1.0 / np.maximum(np.array([s for _, s in fits]), 1e-6) ** 2
+    q = float(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2))
+    dof = len(fits) - 1
+    if q <= 2.0 * float(gammainccinv(0.5 * dof, level)):  # the chi-square quantile
+        return 0.0
+    return math.sqrt((q - dof) / float(np.sum(w) - np.sum(w * w) / np.sum(w)))

@@ -215,9 +215,10 @@ class _Trust:
         uncertainty in log altitude, the frame's scale is not one, and the altitude is not
         trusted.  Where the tiles together scatter more than their uncertainties allow
         (:func:`tile_scatter`), the scatter joins the fit's uncertainty (in place, in
-        ``res``), and a fit whose interval then fails the trust bar is not trusted.  A tile is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a
-        tilt within the tool's reach moves a tile's scale by far less, and a peak beyond is
-        not the shell.  ``signal``: the scalar sequence the fit was made of."""
+        ``res``), and a fit whose interval then fails the trust bar is not trusted.  A tile
+        is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a tilt within the
+        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell.
+        ``signal``: the scalar sequence the fit was made of."""
         t = signal.shape[0]
         # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
         # grid as the whole range's

@@ -204,8 +204,8 @@ class _Profile(_VelocityMap):
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
         # the profile's noise: the sd of its score under random phase steps
         noise = null_sd(p, sub)
-        return {"logh": logh, "u": u, "z": significance(p, vals), "scan": scan, "interior": interior,
-                "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
+        return {"logh": logh, "u": u, "z": significance(p, vals), "scan": scan,
+                "interior": interior, "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge),
                 "band_log": paired_band(grid, ridge, i)}
 

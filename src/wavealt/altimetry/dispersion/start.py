@@ -10,8 +10,8 @@ import numpy as np
 
 from wavealt.altimetry.dispersion.constants import TUKEY_C_RAD
 from wavealt.altimetry.dispersion.kernel import compiled_start_module
-from wavealt.altimetry.dispersion.velocity_map import _map_peaks_arrays
 from wavealt.altimetry.dispersion.spectra import _wrap
+from wavealt.altimetry.dispersion.velocity_map import _map_peaks_arrays
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2
 
 # the Gauss-Newton normal matrix's floor (_refine)

@@ -243,9 +243,9 @@ class _Trust:
                 fits.append((math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
         tau = tile_scatter(fits)
         if tau > 0.0:
-            sd_log = math.hypot(res.altitude_std_m / res.altitude_m, tau)
-            res.altitude_std_m = res.altitude_m * sd_log
-            if 3.0 * sd_log > math.log1p(MAX_TRUSTED_3SIGMA):
+            res.altitude_std_m = res.altitude_m * math.hypot(res.altitude_std_m
+                                                             / res.altitude_m, tau)
+            if self._distrust(res) is not None:  # the wider interval fails the trust bar
                 return (f"the corner tiles' altitudes scatter by {100 * tau:.0f} % beyond "
                         f"their uncertainty: the image scale is not one over the frame (a "
                         f"tilted camera: give its attitude)")
@@ -298,8 +298,9 @@ def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LE
         return 0.0
     x = np.array([a for a, _ in fits])
     w = 1.0 / np.maximum(np.array([s for _, s in fits]), 1e-6) ** 2
-    q = float(np.sum(w * (x - np.sum(w * x) / np.sum(w)) ** 2))
+    sw = float(w.sum())
+    q = float(np.sum(w * (x - float(np.sum(w * x)) / sw) ** 2))
     dof = len(fits) - 1
     if q <= 2.0 * float(gammainccinv(0.5 * dof, level)):  # the chi-square quantile
         return 0.0
-    return math.sqrt((q - dof) / float(np.sum(w) - np.sum(w * w) / np.sum(w)))
+    return math.sqrt((q - dof) / (sw - float(np.sum(w * w)) / sw))

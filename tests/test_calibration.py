@@ -137,10 +137,45 @@ def test_a_tilted_camera_reads_right_when_its_attitude_is_known(h, roll, pitch, 
     kw = {"fps": cfg.fps, "velocity_mps": sc.camera_velocity_mps}
     view = NadirView(pinhole(256, 256, cfg.focal_px), 256, 256, roll_deg=roll, pitch_deg=pitch)
     known = est.estimate(view(frames), focal_px=view.focal_px, **kw)
-    ignored = est.estimate(frames, focal_px=cfg.focal_px, **kw)
+    ignored = DispersionAltimeter(dispersion="gravity", attitude="level").estimate(
+        frames, focal_px=cfg.focal_px, **kw)
     assert known.trusted and abs(known.altitude_m / h - 1) < 0.03, known
     # the tilt foreshortens the far side: ignored, it reads high
     assert ignored.altitude_m / h - 1 > 0.08, ignored
+
+
+@pytest.mark.parametrize("h, roll, pitch, seed", [(4.5, 0.0, 15.0, 3), (3.0, 10.0, -5.0, 4),
+                                                  (6.0, -8.0, 12.0, 1)])
+def test_a_tilted_camera_whose_attitude_is_not_given_is_levelled_at_its_tiles_tilt(
+        h, roll, pitch, seed) -> None:
+    """Without an attitude, the corner tiles' scales measure the tilt (to a few degrees on
+    10 frames), the frames are levelled at it, and the estimate keeps its contract: 3 sigma
+    covers the error, and a trusted one is within 10 %; ignoring the tilt reads high."""
+    nadir, sc, cfg = _scene("paper", h, seed)
+    frames = _remap(nadir, cfg.focal_px,
+                    _pixel_rays(256, cfg.focal_px) @ tilt_rotation(roll, pitch).T)
+    kw = {"fps": cfg.fps, "velocity_mps": sc.camera_velocity_mps, "focal_px": cfg.focal_px}
+    res = DispersionAltimeter(dispersion="gravity").estimate(frames, **kw)
+    assert res.attitude_deg is not None and res.signal.endswith("+levelled"), res
+    assert np.allclose(res.attitude_deg, (roll, pitch), atol=4.0), res.attitude_deg
+    err = abs(res.altitude_m / h - 1)
+    assert err * h <= 3.0 * res.altitude_std_m, res
+    assert err < 0.10 or not res.trusted, res
+    assert res.to_dict()["attitude_deg"] == [float(v) for v in res.attitude_deg]
+    ignored = DispersionAltimeter(dispersion="gravity", attitude="level").estimate(frames, **kw)
+    assert ignored.attitude_deg is None and ignored.altitude_m / h - 1 > 0.08, ignored
+    assert err < ignored.altitude_m / h - 1
+
+
+def test_a_level_camera_is_not_levelled() -> None:
+    nadir, sc, cfg = _scene("paper", 5.0, 2)
+    frames = _remap(nadir, cfg.focal_px, _pixel_rays(256, cfg.focal_px))
+    res = DispersionAltimeter(dispersion="gravity").estimate(
+        frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=sc.camera_velocity_mps)
+    assert res.attitude_deg is None and "levelled" not in res.signal and res.trusted, res
+    assert res.to_dict()["attitude_deg"] is None
+    with pytest.raises(ValueError, match="attitude"):
+        DispersionAltimeter(attitude="sideways")
 
 
 def test_lens_distortion_is_undone_by_the_calibration(tmp_path) -> None:

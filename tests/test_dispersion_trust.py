@@ -280,10 +280,13 @@ def _slope_image(h: float, seed: int, *, size: int = 128, frames: int = 10):
 def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:
     """The model holds one image scale over the frame (a level camera).  A frame whose left
     half sees the sea from 4 m and its right half from 5.2 m (the two sides of a tilted
-    camera, exaggerated) is not trusted, and says why; the 4-m frame alone is."""
+    camera, exaggerated) is not trusted as a level camera's, and says why; the 4-m frame
+    alone is.  Where the attitude is estimated, the scale's change across the frame is a
+    tilt toward its far (right) side, about the image's vertical axis, and the altitude lies
+    between the two sides'."""
     near, v, focal = _slope_image(4.0, 3)
     far, _, _ = _slope_image(5.2, 3)
-    est = DispersionAltimeter(dispersion="gravity")
+    est = DispersionAltimeter(dispersion="gravity", attitude="level")
     kw = {"fps": 30.0, "focal_px": focal, "velocity_mps": v}
     level = est.estimate(near, **kw)
     assert level.trusted, level
@@ -293,6 +296,10 @@ def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:
     res = est.estimate(split, **kw)
     assert not res.trusted
     assert "corner tiles" in res.reason
+    tilted = DispersionAltimeter(dispersion="gravity").estimate(split, **kw)
+    roll, pitch = tilted.attitude_deg
+    assert roll < -5.0 and abs(pitch) < 2.0, tilted
+    assert 4.0 < tilted.altitude_m < 5.2, tilted
 
 
 def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:

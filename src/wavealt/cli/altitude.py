@@ -84,7 +84,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "
                    "camera relative to the water surface, image axes, m/s; also as "
                    "velocity_mps, the design contract's name), quality, frames, windows, "
-                   "trusted_windows.")
+                   "trusted_windows; attitude_deg (roll, pitch) where the frames' own tilt was "
+                   "measured and levelled, else null.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 @click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
@@ -189,6 +190,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     click.echo(f"mode: {summary['mode']} ({dispersion} dispersion)")
     click.echo(f"camera velocity over the water: ({vx:+.2f}, {vy:+.2f}) m/s "
                "(image +x columns, +y rows)")
+    if summary.get("attitude_deg") is not None:
+        roll, pitch = summary["attitude_deg"]
+        click.echo(f"camera tilt measured from the frames: roll {roll:+.1f}, pitch {pitch:+.1f} "
+                   "deg (frames levelled at it)")
     click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
                f"{summary['windows']} window(s), {summary['trusted_windows']} trusted")
     timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}

@@ -135,7 +135,24 @@ TILE_AGREEMENT_SIGMAS = 3.0
 #: known keep their trusted share (0.55-0.72).  Always adding tau (no test) cost the level
 #: scenes 2-4 points of trusted share for the same effect.
 TILE_SCATTER_LEVEL = 0.1
-#: The corner tiles of :meth:`_tile_disagreement` are searched within this factor of the
+#: Test level at which the corner tiles' altitudes show a tilt (:mod:`.attitude`: the fall
+#: of their chi-square from the level model to the tilted one, two degrees of freedom);
+#: where they do, the frames are levelled at the tilt measured and fitted again
+#: (:meth:`~.altimeter.DispersionAltimeter._level`).  One per cent: the tiles' noise alone
+#: levels one level window in a hundred, by a tilt within that noise, which moves its
+#: altitude by far less than its uncertainty (the levelled view's scale at the centre
+#: changes with the square of a small tilt).
+ATTITUDE_LEVEL = 0.01
+#: Most times the frames are levelled at the tilt their corner tiles show: each pass
+#: measures what the last one left (the tiles' scales are the mean over a tile of a scale
+#: that changes across it, and a wave field seen obliquely reads the scale along the waves'
+#: direction, so the first estimate of a tilt is not its last).
+ATTITUDE_PASSES = 3
+#: What the altimeter assumes of the camera's attitude: ``"estimate"`` measures a tilt from
+#: the corner tiles' scales and levels the frames at it; ``"level"`` takes the frames as
+#: those of a camera looking straight down.
+ATTITUDES = ("estimate", "level")
+#: The corner tiles of :meth:`_tile_fits` are searched within this factor of the
 #: fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 % (realistic
 #: preset, 60 degrees of view), and a tile's peak twice as far is not the shell.
 TILE_RANGE_FACTOR = 2.0

@@ -38,7 +38,12 @@ class DispersionResult:
     signal : str
         The scalar sequence fitted (``"luma"`` or ``"chroma"``) and the tiles it was
         transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``; a blind fit
-        from which a pattern carried with the water (foam) was removed adds ``"+carried"``.
+        from which a pattern carried with the water (foam) was removed adds ``"+carried"``;
+        one made on frames levelled at a tilt the altimeter measured adds ``"+levelled"``.
+    attitude_deg : (float, float) or None
+        ``(roll, pitch)``, degrees (:func:`wavealt.camera.tilt_rotation`'s convention), at
+        which the altimeter levelled the frames before this fit, measured from the scales of
+        the frames' corner tiles; None where the frames were fitted as given.
     """
 
     altitude_m: float
@@ -51,6 +56,7 @@ class DispersionResult:
     frames: int
     n_modes: int
     signal: str = ""
+    attitude_deg: tuple[float, float] | None = None
     #: How far the shell's peak stands above the score of random phase steps, in standard
     #: deviations of it (``MIN_SIGNIFICANCE``); internal to the trust decision.
     significance: float = field(default=0.0, repr=False, compare=False)
@@ -62,5 +68,7 @@ class DispersionResult:
         for key in ("altitude_m", "altitude_std_m", "quality"):
             d[key] = float(d[key])
         d["trusted"] = bool(self.trusted)
+        if self.attitude_deg is not None:
+            d["attitude_deg"] = [float(v) for v in self.attitude_deg]
         del d["significance"]
         return d

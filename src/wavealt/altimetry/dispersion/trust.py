@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from scipy.special import gammainccinv
 
+from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.constants import (
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
@@ -200,25 +201,19 @@ class _Trust:
 
     def _tile_disagreement(self, signal: np.ndarray, res: DispersionResult, fps: float,
                            focal_px: float) -> str | None:
-        """Why the four corner tiles contradict a fit that passes the other trust tests
-        (:meth:`_distrust`), None where they do not.
+        """Why the four corner tiles of ``signal`` (the scalar sequence the fit was made
+        of) contradict ``res`` (:meth:`_tile_verdict` of :meth:`_tile_fits`)."""
+        return self._tile_verdict(self._tile_fits(signal, res, fps, focal_px), res)
 
-        The model holds one image scale over the frame: a camera looking straight down at a
-        level sea.  A tilted camera sees the sea farther away on one side of the frame than
-        on the other, and its fit reads an average of the scales, high by up to twice the
-        tilt's range factor (realistic preset, 10-15 degrees of tilt ignored, velocity
-        known: +10 to +19 %, at 1.4-2.9 % uncertainty).  Each corner tile is fitted alone, at
-        the fit's velocity (m/s; the tile's own altitude scales it to pixels), with the
-        aided search of :meth:`_aided` on a quarter of the modes; where two tiles whose fits
-        hold a shell's peak (significant and prominent, as :meth:`_distrust` asks, however
-        wide their interval) differ by more than ``TILE_AGREEMENT_SIGMAS`` of their combined
-        uncertainty in log altitude, the frame's scale is not one, and the altitude is not
-        trusted.  Where the tiles together scatter more than their uncertainties allow
-        (:func:`tile_scatter`), the scatter joins the fit's uncertainty (in place, in
-        ``res``), and a fit whose interval then fails the trust bar is not trusted.  A tile
-        is searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a tilt within the
-        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell.
-        ``signal``: the scalar sequence the fit was made of."""
+    def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
+                   focal_px: float) -> list[tuple[float, float, float, float]]:
+        """Each corner tile of ``signal`` fitted alone at the fit's velocity (m/s; the tile's
+        own altitude scales it to pixels), with the aided search of :meth:`_aided` on a
+        quarter of the modes: ``(x, y, log altitude, sd_log)`` of every tile whose fit holds
+        a shell's peak (significant and prominent, as :meth:`_distrust` asks, however wide
+        its interval), ``(x, y)`` its centre in px from the frame's centre.  A tile is
+        searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a tilt within the
+        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell."""
         t = signal.shape[0]
         # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
         # grid as the whole range's
@@ -229,19 +224,44 @@ class _Trust:
         near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
                                                           / near.altitude_range_m[0])
                                    / math.log(hi / lo)))
+        tiles = _corners(signal, self.corner_tiles or 0.4)
+        centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
         fits = []
-        for tile in _corners(signal, self.corner_tiles or 0.4):
+        for tile, (x, y) in zip(tiles, centres):
             # a quarter of the modes: the tile holds a quarter of the corners' data
             p = self._fit_periodogram(tile, corners=False,
                                       max_modes=max(self.max_modes // 4, 8))
             if p is None:
                 continue
             r = near._aided(p, t, fps, focal_px, res.camera_velocity_mps)
-            # a shell's peak (significant and prominent), however wide its interval: the
-            # test below weighs each tile by its own uncertainty
-            if r.significance >= MIN_SIGNIFICANCE and r.quality >= TRUSTED_QUALITY:
-                fits.append((math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
-        tau = tile_scatter(fits)
+            if self._holds_shell(r):
+                fits.append((x, y, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
+        return fits
+
+    @staticmethod
+    def _holds_shell(res: DispersionResult) -> bool:
+        """Whether a fit found a shell's peak: significant and prominent (the first two of
+        :meth:`_distrust`'s tests), however wide its interval."""
+        return res.significance >= MIN_SIGNIFICANCE and res.quality >= TRUSTED_QUALITY
+
+    def _tile_verdict(self, fits: list[tuple[float, float, float, float]],
+                      res: DispersionResult) -> str | None:
+        """Why the corner tiles' fits ``fits`` (:meth:`_tile_fits`) contradict a fit that
+        passes the other trust tests (:meth:`_distrust`), None where they do not.
+
+        The model holds one image scale over the frame: a camera looking straight down at a
+        level sea.  A tilted camera sees the sea farther away on one side of the frame than
+        on the other, and its fit reads an average of the scales, high by up to twice the
+        tilt's range factor (realistic preset, 10-15 degrees of tilt ignored, velocity
+        known: +10 to +19 %, at 1.4-2.9 % uncertainty); :meth:`_level` takes out a tilt the
+        tiles measure, and this judges what is left.  Where two tiles differ by more than
+        ``TILE_AGREEMENT_SIGMAS`` of their combined uncertainty in log altitude, the frame's
+        scale is not one, and the altitude is not trusted.  Where the tiles together scatter
+        more than their uncertainties allow (:func:`tile_scatter`), the scatter joins the
+        fit's uncertainty (in place, in ``res``), and a fit whose interval then fails the
+        trust bar is not trusted."""
+        logs = [(lg, sd) for _, _, lg, sd in fits]
+        tau = tile_scatter(logs)
         if tau > 0.0:
             res.altitude_std_m = res.altitude_m * math.hypot(res.altitude_std_m
                                                              / res.altitude_m, tau)
@@ -250,8 +270,8 @@ class _Trust:
                         f"their uncertainty: the image scale is not one over the frame (a "
                         f"tilted camera: give its attitude)")
         worst, apart = 0.0, 0.0
-        for i, (a, sa) in enumerate(fits):
-            for b, sb in fits[i + 1:]:
+        for i, (a, sa) in enumerate(logs):
+            for b, sb in logs[i + 1:]:
                 z = abs(a - b) / max(math.hypot(sa, sb), 1e-12)
                 if z > worst:
                     worst, apart = z, abs(a - b)

@@ -65,6 +65,13 @@ neighbours is searched again from theirs.
 Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or
 removed with the colour (chroma) signal.
 
+A camera that does not look straight down sees the sea at a scale that changes across the
+frame.  The four corner tiles, each fitted alone, measure it: over a level sea a pinhole
+tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f / d_z)^1.5`` at
+pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles' altitudes
+fit that model significantly better than one scale, the frames are levelled at the tilt
+(:class:`wavealt.camera.NadirView`) and fitted again, and the result records the attitude.
+
 References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
 image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;
 Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with the shell;

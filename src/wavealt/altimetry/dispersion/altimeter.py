@@ -256,8 +256,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             raise ValueError(msg)
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
         res, signal = self._fit(arr, fps, focal_px, prior)
-        fits = self._tile_fits(signal, res, fps, focal_px) if self._holds_shell(res) else []
-        if self.attitude == "estimate":
+        # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
+        # judge a fit that passes the other trust tests
+        level = self.attitude == "level"
+        fits = (self._tile_fits(signal, res, fps, focal_px) if self._holds_shell(res)
+                and not (level and self._distrust(res) is not None) else [])
+        if not level:
             res, fits = self._level(arr, fps, focal_px, prior, res, fits)
         res.mode = ("blind" if velocity_mps is None
                     else "prior" if velocity_sigma_mps > 0 else "exact")
@@ -287,9 +291,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         (at least two, their scatter within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`): a tilt that one tile's wrong peak made does not
         level the frames, and those are judged as given.
-        Realistic preset, velocity known, 10 frames, 0-15 degrees, tuning seed 101: levelled
-        windows read -4 to +3.5 % where ignoring the tilt read up to +19 %
-        (``docs/dispersion.md``, eighteenth session).
+        Measurements: ``docs/dispersion.md``, eighteenth session.
         """
         from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
 

@@ -310,10 +310,11 @@ def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     est = DispersionAltimeter(dispersion="gravity")
     res = est.estimate(near, fps=30.0, focal_px=focal)
     assert res.trusted, res
-    assert est._tile_disagreement(est._luma(near), res, 30.0, focal) is None
+    assert est._tile_verdict(est._tile_fits(est._luma(near), res, 30.0, focal), res) is None
     split = near.copy()
     split[:, :, 64:] = far[:, :, 64:]
-    assert "corner tiles" in est._tile_disagreement(est._luma(split), res, 30.0, focal)
+    assert "corner tiles" in est._tile_verdict(est._tile_fits(est._luma(split), res, 30.0,
+                                                             focal), res)
 
 
 def test_tile_scatter_is_the_variance_beyond_the_tiles_noise() -> None:

@@ -259,8 +259,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
-        fits = (self._tile_fits(signal, res, fps, focal_px) if self._holds_shell(res)
-                and not (level and self._distrust(res) is not None) else [])
+        wanted = self._distrust(res) is None if level else self._holds_shell(res)
+        fits = self._tile_fits(signal, res, fps, focal_px) if wanted else []
         if not level:
             res, fits = self._level(arr, fps, focal_px, prior, res, fits)
         res.mode = ("blind" if velocity_mps is None

@@ -71,7 +71,7 @@ class TiltFit:
         """Whether the tilt is significant at test level ``level``: the chi-square's fall
         from the level model exceeds its 2-degree-of-freedom quantile (the tiles' noise
         alone exceeds it with probability ``level``)."""
-        return self.chi2_level - self.chi2_tilt > 2.0 * float(gammainccinv(1.0, level))
+        return self.chi2_level - self.chi2_tilt > chi2_quantile(2, level)
 
     def extra_var_log(self) -> float:
         """Variance that leaving the tilt free adds to the tiles' ``log H``: the tilted
@@ -88,6 +88,12 @@ class TiltFit:
             return float(np.trace(c))
         u = np.array([self.a, self.b]) / s
         return float(u @ c @ u) / max(1.0 - s * s, 1e-9)
+
+
+def chi2_quantile(dof: int, level: float) -> float:
+    """The value a chi-square variable of ``dof`` degrees of freedom exceeds with probability
+    ``level`` (the regularised upper incomplete gamma function's inverse)."""
+    return 2.0 * float(gammainccinv(0.5 * dof, level))
 
 
 def tile_centres(shape: tuple[int, int], tile: tuple[int, int]) -> list[tuple[float, float]]:
@@ -112,16 +118,22 @@ def fit_tilt(fits: list[tuple[float, float, float, float]],
     x, y, obs = arr[:, 0] / focal_px, arr[:, 1] / focal_px, arr[:, 2]
     w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
     sw = float(w.sum())
-    mean = float(np.sum(w * obs)) / sw
-    chi2_level = float(np.sum(w * (obs - mean) ** 2))
-    a = b = 0.0
-    normal = np.empty((3, 3))
-    for _ in range(_STEPS):
+
+    def residuals(a: float, b: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """``c``, ``d_z / f`` and the tiles' residuals from the model at the tilt ``(a, b)``
+        with its best ``log H`` (the weighted mean of ``log h + 1.5 log(d_z / f)``)."""
         c = math.sqrt(1.0 - a * a - b * b)
         dz = a * x + b * y + c
         resid = obs - (-1.5 * np.log(dz))
-        log_h = float(np.sum(w * resid)) / sw
-        resid -= log_h
+        resid -= float(np.sum(w * resid)) / sw
+        return c, dz, resid
+
+    # level (a = b = 0): the residuals from the tiles' weighted mean
+    chi2_level = float(np.sum(w * residuals(0.0, 0.0)[2] ** 2))
+    a = b = 0.0
+    normal = np.empty((3, 3))
+    for _ in range(_STEPS):
+        c, dz, resid = residuals(a, b)
         # d log h / d(log H, a, b): 1, -1.5 (x - a / c) / dz, -1.5 (y - b / c) / dz
         jac = np.stack([np.ones_like(x), -1.5 * (x - a / c) / dz, -1.5 * (y - b / c) / dz], 1)
         normal = jac.T @ (w[:, None] * jac)
@@ -131,10 +143,7 @@ def fit_tilt(fits: list[tuple[float, float, float, float]],
             return None
         if abs(step[1]) + abs(step[2]) < 1e-10:
             break
-    c = math.sqrt(1.0 - a * a - b * b)
-    model = -1.5 * np.log(a * x + b * y + c)
-    log_h = float(np.sum(w * (obs - model))) / sw
-    chi2_tilt = float(np.sum(w * (obs - model - log_h) ** 2))
+    chi2_tilt = float(np.sum(w * residuals(a, b)[2] ** 2))
     try:
         cov = np.linalg.inv(normal)
     except np.linalg.LinAlgError:

@@ -117,7 +117,7 @@ MIN_PROMINENCE_Z = 5.0
 MAX_TRUSTED_3SIGMA = 0.10
 #: Most that the altitudes of two corner tiles, each fitted alone and holding a shell's peak,
 #: may differ, in standard deviations of their difference (log altitude), before a fit that
-#: passes every other test is not trusted (:meth:`_tile_disagreement`): the tiles of a level
+#: passes every other test is not trusted (:meth:`_tile_verdict`): the tiles of a level
 #: camera read one scale, those of a tilted one do not.  Three, as for the trust bar's
 #: interval.  Realistic preset, velocity known, 10 frames, tuning seed 101, 0-15 degrees of
 #: tilt ignored: all 11 trusted windows more than 10 % off exceed it (2 were left when only

@@ -8,9 +8,8 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.special import gammainccinv
 
-from wavealt.altimetry.dispersion.attitude import tile_centres
+from wavealt.altimetry.dispersion.attitude import chi2_quantile, tile_centres
 from wavealt.altimetry.dispersion.constants import (
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
@@ -199,12 +198,6 @@ class _Trust:
             return "at the edge of the altitude range searched"
         return res.reason
 
-    def _tile_disagreement(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                           focal_px: float) -> str | None:
-        """Why the four corner tiles of ``signal`` (the scalar sequence the fit was made
-        of) contradict ``res`` (:meth:`_tile_verdict` of :meth:`_tile_fits`)."""
-        return self._tile_verdict(self._tile_fits(signal, res, fps, focal_px), res)
-
     def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
                    focal_px: float) -> list[tuple[float, float, float, float]]:
         """Each corner tile of ``signal`` fitted alone at the fit's velocity (m/s; the tile's
@@ -321,6 +314,6 @@ def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LE
     sw = float(w.sum())
     q = float(np.sum(w * (x - float(np.sum(w * x)) / sw) ** 2))
     dof = len(fits) - 1
-    if q <= 2.0 * float(gammainccinv(0.5 * dof, level)):  # the chi-square quantile
+    if q <= chi2_quantile(dof, level):
         return 0.0
     return math.sqrt((q - dof) / (sw - float(np.sum(w * w)) / sw))

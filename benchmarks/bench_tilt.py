@@ -83,8 +83,10 @@ def scene(seed: int, index: int, max_tilt: float, frames: int,
                          roll_deg=roll, pitch_deg=pitch)
         level = view(tilted)
         level_s = time.perf_counter() - t0
+        # the attitude known: the frames levelled at it are taken as level, as the command
+        # line does for an attitude given
         for case, fr, focal, by in (("nadir", nadir, f, est),
-                                    ("tilt_known", level, view.focal_px, est),
+                                    ("tilt_known", level, view.focal_px, level_only),
                                     ("tilt_estimated", tilted, f, est),
                                     ("tilt_ignored", tilted, f, level_only)):
             t1 = time.perf_counter()

@@ -9,7 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from wavealt.altimetry.dispersion.attitude import fit_tilt, tile_centres
+from wavealt.altimetry.dispersion.attitude import (
+    fit_tilt,
+    tile_centres,
+    unmeasured_tilt_var_log,
+)
 from wavealt.altimetry.dispersion.constants import ATTITUDE_LEVEL
 from wavealt.altimetry.dispersion.spectra import _corners
 from wavealt.camera import tilt_rotation
@@ -74,3 +78,49 @@ def test_tile_centres_are_those_of_the_corner_tiles() -> None:
     tx, ty = _corners(xs, 0.4), _corners(ys, 0.4)
     for (cx, cy), a, b in zip(tile_centres((h, w), tx[0].shape[1:]), tx, ty):
         assert cx == pytest.approx(float(a.mean())) and cy == pytest.approx(float(b.mean()))
+
+
+def test_a_tilt_no_tile_measures_moves_a_one_sided_reading_as_the_geometry_does() -> None:
+    """The variance an unmeasured tilt adds, against the exact projection: tilts drawn from
+    the prior move the log altitude a tile reads by the predicted amount, and a reading from
+    tiles that measure the tilt, or from the frame's middle, not at all."""
+    focal, height, prior_deg = 268.5, 4.0, 7.5
+    s = math.sin(math.radians(prior_deg))
+    centres = tile_centres((256, 256), (96, 96))
+    rng = np.random.default_rng(11)
+    tilts = rng.normal(0.0, prior_deg, (4000, 2))
+    for tiles in ([centres[3]], [centres[2], centres[3]], [centres[0], centres[1]],
+                  [centres[1], centres[3]]):
+        # equal sigmas: the fit reads at the tiles' centroid, which is what moves
+        gx, gy = np.mean(tiles, axis=0)
+        var = unmeasured_tilt_var_log([(x, y, 0.0, 0.02) for x, y in tiles], focal, s)
+        # two tiles on one side measure the tilt along their line (roll for a pair in one
+        # row), not across it: the tilts that move their reading unmeasured are about the
+        # other axis alone
+        free = tilts.copy()
+        if len(tiles) == 2:
+            free[:, 0 if tiles[0][1] == tiles[1][1] else 1] = 0.0
+        across = gx if tiles[0][0] == tiles[-1][0] else gy
+        want = 2.25 * s**2 * (gx**2 + gy**2 if len(tiles) == 1 else across**2) / focal**2
+        assert var == pytest.approx(want, rel=1e-9)
+        # first order in the tilt: the projection's own spread within a tenth
+        moved = [math.log(_sea_scale(gx, gy, focal, tilt_rotation(r, p), height) / height)
+                 for r, p in free]
+        assert math.sqrt(var) == pytest.approx(float(np.std(moved)), rel=0.1)
+    # a diagonal pair (its centroid is the middle), three or four tiles: nothing unmeasured
+    for tiles in ([centres[0], centres[3]], centres[:3], centres):
+        assert unmeasured_tilt_var_log([(x, y, 0.0, 0.02) for x, y in tiles], focal, s) \
+            == pytest.approx(0.0, abs=1e-15)
+    assert unmeasured_tilt_var_log([], focal, s) == 0.0
+
+
+def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:
+    """Unequal sigmas move the centroid toward the precise tile: a diagonal pair leaves the
+    tilt across it unmeasured once one tile outweighs the other."""
+    focal, s = 268.5, 0.1
+    (x0, y0), _, _, (x3, y3) = tile_centres((256, 256), (96, 96))
+    var = unmeasured_tilt_var_log([(x0, y0, 0.0, 0.01), (x3, y3, 0.0, 0.04)], focal, s)
+    # the centroid lies on the diagonal, along which the pair measures the tilt
+    assert var == pytest.approx(0.0, abs=1e-15)
+    one = unmeasured_tilt_var_log([(x0, y0, 0.0, 0.01)], focal, s)
+    assert one == pytest.approx(2.25 * s**2 * (x0**2 + y0**2) / focal**2)

@@ -302,6 +302,31 @@ def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:
     assert 4.0 < tilted.altitude_m < 5.2, tilted
 
 
+@pytest.mark.parametrize("side", ["top", "left"])
+def test_waves_on_one_side_of_the_frame_are_not_trusted_unless_the_camera_is_level(
+        side: str) -> None:
+    """Where only the tiles on one side of the frame hold the waves (the other side flat, as
+    under a sky's glare), nothing in the frame measures a tilt toward the other side: with
+    the attitude unknown the altitude is not trusted, and the reason says why; the camera
+    declared level, and the whole frame with the attitude unknown, are trusted."""
+    near, v, focal = _slope_image(4.0, 3, frames=30)
+    kw = {"fps": 30.0, "focal_px": focal, "velocity_mps": v}
+    whole = DispersionAltimeter(dispersion="gravity").estimate(near, **kw)
+    assert whole.trusted, whole
+    one_side = near.copy()
+    # one half without waves
+    one_side[(slice(None), slice(0, 64)) if side == "top" else (Ellipsis, slice(0, 64))] = 0.5
+    level = DispersionAltimeter(dispersion="gravity", attitude="level").estimate(one_side,
+                                                                                 **kw)
+    assert level.trusted, level
+    _assert_honest(level, 4.0)
+    unknown = DispersionAltimeter(dispersion="gravity").estimate(one_side, **kw)
+    assert not unknown.trusted
+    assert "on one side of the frame" in unknown.reason and "attitude" in unknown.reason
+    assert unknown.altitude_m == level.altitude_m
+    _assert_honest(unknown, 4.0)
+
+
 def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     """A trusted blind fit's corner tiles are fitted at the velocity it found: they agree
     on the level frames and not on frames whose halves show two scales."""
@@ -341,3 +366,30 @@ def test_tile_scatter_fires_at_its_level_on_tiles_that_share_one_scale() -> None
         sd = rng.uniform(0.01, 0.15, k)
         fired.append(tile_scatter(list(zip(1.5 + sd * rng.normal(size=k), sd))) > 0.0)
     assert abs(np.mean(fired) - TILE_SCATTER_LEVEL) < 0.015
+
+
+def test_cli_takes_frames_levelled_at_an_attitude_given_as_level(tmp_path, run_cli) -> None:
+    """An attitude given (``--roll-deg/--pitch-deg``) levels the frames, and the altimeter
+    then takes them as level: waves on one side of the frame are trusted with it and not
+    without it (the attitude unknown), which the text output says."""
+    import json
+
+    from wavealt.io import write_frames_folder
+
+    near, v, focal = _slope_image(4.0, 3, frames=30)
+    one_side = near.copy()
+    one_side[:, :64] = 0.5
+    write_frames_folder(tmp_path / "clip", np.repeat(one_side[..., None], 3, axis=-1))
+    base = ["altitude", str(tmp_path / "clip"), "--fps", "30", "--focal-px", str(focal),
+            "--dispersion", "gravity", "--velocity-mps", ",".join(str(x) for x in v)]
+    code, out, err = run_cli([*base, "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert not res["trusted"] and "on one side of the frame" in res["reason"], res
+    code, out, err = run_cli(base)
+    assert code == 0, err
+    assert "NOT TRUSTED (only 2 of the 4 corner tiles hold the waves" in out
+    code, out, err = run_cli([*base, "--roll-deg", "0", "--pitch-deg", "0", "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res

@@ -171,9 +171,13 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         fov_v = 2 * math.atan(frames.shape[1] / (2 * focal_px))
         link = MavlinkLink(mavlink, min_m=lo, max_m=hi, fov_rad=(fov_h, fov_v))
     try:
+        # an attitude given levels the frames: the altimeter takes them as level (and does
+        # not allow for a tilt it cannot measure)
+        known = attitude is not None or (roll_deg, pitch_deg) != (None, None)
         summary, rows = altitude_series(
             frames, times_s=clip.times_s, focal_px=focal_px, window=window, step=step,
-            dispersion=dispersion, out=out, velocity_mps=velocity,
+            dispersion=dispersion, attitude="level" if known else "estimate", out=out,
+            velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0,
             on_window=link.send_altitude if link is not None else None)
     finally:
@@ -233,7 +237,10 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     if out is not None:
         check_output_folder(out, (LIVE_FILE,), force=force)
         out.mkdir(parents=True, exist_ok=True)
-    est = DispersionAltimeter(dispersion=dispersion)
+    # frames levelled at an attitude given (fixed, or the vehicle's) are taken as level
+    est = {known: DispersionAltimeter(dispersion=dispersion,
+                                      attitude="level" if known else "estimate")
+           for known in (False, True)}
     sigma = velocity_sigma_mps
     if velocity_from_vehicle and sigma is None:
         sigma = 1.0
@@ -255,18 +262,20 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
 
     def estimate(frames: np.ndarray, fps: float) -> dict[str, Any]:
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
+        known = (roll_deg, pitch_deg) != (None, None)
         vel, sd = velocity, sigma or 0.0
         if link is not None:
             state = link.poll()
             if tilt_from_vehicle and state.attitude_rad is not None:
                 roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
+                known = True
             if velocity_from_vehicle:
                 vel = link.camera_velocity_mps()
         roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
         view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
         if view is not None:
             frames, f = view(frames), view.focal_px
-        res = est.estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
+        res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
                            velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch

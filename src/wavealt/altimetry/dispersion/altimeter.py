@@ -125,10 +125,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
     attitude : {"estimate", "level"}
         ``"estimate"`` (the default): where the corner tiles' scales show that the camera
         is tilted (:mod:`.attitude`, ``ATTITUDE_LEVEL``), the frames are levelled at the
-        tilt measured and fitted again (:meth:`_level`; the result's ``attitude_deg``);
-        ``"level"``: the frames are fitted as those of a camera looking straight down (frames
-        already levelled at an attitude known, :class:`wavealt.camera.NadirView`, may still
-        be tilted by the attitude's error).
+        tilt measured and fitted again (:meth:`_level`; the result's ``attitude_deg``), and
+        where the tiles that hold the waves cannot measure the tilt (all on one side of the
+        frame) a tilt of about ``ATTITUDE_PRIOR_SD_DEG`` per axis joins the uncertainty
+        (:meth:`_unmeasured_tilt`); ``"level"``: the frames are fitted as those of a camera
+        looking straight down (frames already levelled at an attitude known,
+        :class:`wavealt.camera.NadirView`, may still be tilted by the attitude's error).
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
@@ -263,6 +265,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         fits = self._tile_fits(signal, res, fps, focal_px) if wanted else []
         if not level:
             res, fits = self._level(arr, fps, focal_px, prior, res, fits)
+            if res.attitude_deg is None:
+                res.reason = self._unmeasured_tilt(fits, res, focal_px) or res.reason
         res.mode = ("blind" if velocity_mps is None
                     else "prior" if velocity_sigma_mps > 0 else "exact")
         if self._distrust(res) is None:

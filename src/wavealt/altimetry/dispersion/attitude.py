@@ -106,6 +106,36 @@ def tile_centres(shape: tuple[int, int], tile: tuple[int, int]) -> list[tuple[fl
     return [(x, y), (-x, y), (x, -y), (-x, -y)]
 
 
+def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal_px: float,
+                            prior_sd: float) -> float:
+    """Variance of ``log H`` that a tilt the tiles ``fits`` cannot measure adds to a fit read
+    where they hold the waves; each tile ``(x, y, log h, sd_log)`` as for :func:`fit_tilt`,
+    ``prior_sd`` the prior standard deviation of each of the normal's parts ``a`` and ``b``
+    (the sine of a tilt about each axis).
+
+    To first order in the tilt, a tile at ``(x, y)`` reads ``log h = log H - 1.5 (a x + b y)
+    / f``.  The fit reads about where its evidence lies, the tiles' weighted centroid ``g``
+    (weights ``1 / sd^2``), so it misses ``log H`` by ``1.5 (a, b) . g / f``.  The tiles'
+    differences from one another measure the tilt along the directions their offsets from
+    ``g`` span (:func:`fit_tilt`, :meth:`TiltFit.significant` and the levelling act on what
+    they measure); along the others nothing in the frames measures it, and there the prior
+    stands.  The variance is ``2.25 s^2 |P g|^2 / f^2``, ``P`` the projection onto the
+    unmeasured directions: the whole centroid for one tile, its part across the line
+    through two, nothing for three or four corner tiles (never collinear), and nothing
+    without tiles (no evidence of where the fit reads).
+    """
+    if not fits:
+        return 0.0
+    arr = np.asarray(fits, dtype=np.float64)
+    pos = arr[:, :2] / focal_px
+    w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
+    centre = w @ pos / float(w.sum())
+    _, sv, vt = np.linalg.svd(pos - centre)
+    measured = vt[:int(np.sum(sv > 1e-9 * max(float(np.max(np.abs(pos))), 1e-30)))]
+    free = centre - measured.T @ (measured @ centre)
+    return 2.25 * prior_sd**2 * float(free @ free)
+
+
 def fit_tilt(fits: list[tuple[float, float, float, float]],
              focal_px: float) -> TiltFit | None:
     """The tilted fit of tiles ``fits``, each ``(x, y, log h, sd_log)`` (centre px from the

@@ -148,6 +148,16 @@ ATTITUDE_LEVEL = 0.01
 #: that changes across it, and a wave field seen obliquely reads the scale along the waves'
 #: direction, so the first estimate of a tilt is not its last).
 ATTITUDE_PASSES = 3
+#: The tilt a camera whose attitude is not given may have, per axis (roll and pitch), one
+#: standard deviation in degrees: the altimeter measures tilts of up to 15 degrees from its
+#: corner tiles (README), and a tilt spread evenly over the disk of that radius has a
+#: standard deviation of half the radius along each axis.  Where the tiles that hold the
+#: waves lie on one side of the frame, nothing in it measures the tilt toward the other
+#: side, and this prior's part of it joins the uncertainty
+#: (:func:`.attitude.unmeasured_tilt_var_log`): fresh tilt tuning seeds 505/606 (0-15
+#: degrees, velocity known, 10 frames) had 7 of 160 windows trusted 14-36 % high, each
+#: with one or two tiles holding the waves, on one side.
+ATTITUDE_PRIOR_SD_DEG = 7.5
 #: What the altimeter assumes of the camera's attitude: ``"estimate"`` measures a tilt from
 #: the corner tiles' scales and levels the frames at it; ``"level"`` takes the frames as
 #: those of a camera looking straight down.

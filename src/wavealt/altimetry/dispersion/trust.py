@@ -9,8 +9,13 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.altimetry.dispersion.attitude import chi2_quantile, tile_centres
+from wavealt.altimetry.dispersion.attitude import (
+    chi2_quantile,
+    tile_centres,
+    unmeasured_tilt_var_log,
+)
 from wavealt.altimetry.dispersion.constants import (
+    ATTITUDE_PRIOR_SD_DEG,
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
     BLIND_SD_FLOOR_LOG,
@@ -273,6 +278,32 @@ class _Trust:
         return (f"the corner tiles' altitudes differ by {100 * math.expm1(apart):.0f} % "
                 f"({worst:.1f} sigma): the image scale is not one over the frame (a tilted "
                 f"camera: give its attitude)")
+
+    def _unmeasured_tilt(self, fits: list[tuple[float, float, float, float]],
+                         res: DispersionResult, focal_px: float) -> str | None:
+        """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
+        levelled by the part of the tilt its corner tiles ``fits`` (:meth:`_tile_fits`)
+        cannot measure (:func:`.attitude.unmeasured_tilt_var_log`, the prior
+        ``ATTITUDE_PRIOR_SD_DEG``); why the fit is no longer trusted where it passed the
+        trust tests before and the wider interval fails the bar, else None.
+
+        Where only the tiles on one side of the frame hold the waves, a level camera and
+        one tilted toward the other side give the same tiles, at altitudes apart by the
+        scale that tilt makes there (a camera 13 degrees from nadir read 36 % high, at 1.4 %,
+        from the one corner whose sea glittered)."""
+        var = unmeasured_tilt_var_log(fits, focal_px,
+                                      math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)))
+        if var <= 0.0:
+            return None
+        passed = self._distrust(res) is None
+        res.altitude_std_m = res.altitude_m * math.sqrt((res.altitude_std_m / res.altitude_m)
+                                                        ** 2 + var)
+        if passed and self._distrust(res) is not None:
+            verb = "holds" if len(fits) == 1 else "hold"
+            return (f"only {len(fits)} of the 4 corner tiles {verb} the waves, on one side of "
+                    f"the frame: an unknown tilt of the camera moves the altitude by "
+                    f"{100 * math.sqrt(var):.0f} % (1 sigma; give its attitude)")
+        return None
 
     def _standing(self, res: DispersionResult) -> tuple[bool, bool, float]:
         """Order of two fits of one window: trusted first, then significant, then graded."""

@@ -393,3 +393,37 @@ def test_cli_takes_frames_levelled_at_an_attitude_given_as_level(tmp_path, run_c
     assert code == 0, err
     res = json.loads(out)
     assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res
+
+
+def _fit_result(altitude_m: float, sd_rel: float) -> DispersionResult:
+    return DispersionResult(altitude_m=altitude_m, altitude_std_m=altitude_m * sd_rel,
+                            camera_velocity_mps=(0.0, 0.0), quality=0.9, trusted=False,
+                            reason=None, mode="exact", frames=10, n_modes=500)
+
+
+def test_a_fit_that_its_tiles_do_not_read_is_not_trusted() -> None:
+    """The fit is made of its corner tiles: two tiles holding the waves at 1.23 m (1-2 %)
+    contradict a fit at 1.72 m (2.3 %), whatever the tiles' agreement among themselves; the
+    same tiles under a fit at 1.25 m do not."""
+    est = DispersionAltimeter()
+    tiles = [(-80.0, 80.0, np.log(1.23), 0.013), (80.0, 80.0, np.log(1.234), 0.021)]
+    reason = est._tile_verdict(tiles, _fit_result(1.72, 0.023))
+    assert reason is not None and "read -28 % from the fit" in reason
+    assert est._tile_verdict(tiles, _fit_result(1.25, 0.023)) is None
+
+
+def test_the_fit_and_its_tiles_disagree_at_most_at_the_agreement_bar_by_chance() -> None:
+    """Tiles and a fit that share one altitude, each off by its own uncertainty: the
+    fit-against-tiles test (3 sigma, two-sided) fires in well under 1 % of them."""
+    est = DispersionAltimeter()
+    rng = np.random.default_rng(8)
+    fired, n = 0, 3000
+    for _ in range(n):
+        k = int(rng.integers(1, 5))
+        sd = rng.uniform(0.01, 0.05, k)
+        tiles = [(0.0, 0.0, 1.5 + s * rng.standard_normal(), s) for s in sd]
+        fit_sd = float(rng.uniform(0.01, 0.03))
+        res = _fit_result(float(np.exp(1.5 + fit_sd * rng.standard_normal())), fit_sd)
+        reason = est._tile_verdict(tiles, res)
+        fired += reason is not None and "from the fit" in reason
+    assert fired / n < 0.01, fired / n

@@ -327,6 +327,19 @@ def test_waves_on_one_side_of_the_frame_are_not_trusted_unless_the_camera_is_lev
     _assert_honest(unknown, 4.0)
 
 
+def test_the_tiles_take_the_fits_mode_series_as_they_would_transform_them() -> None:
+    """The tile check takes the fit's periodogram's corner series instead of transforming
+    the tiles again: the same tile fits, to the bit, as from the tiles themselves."""
+    near, v, focal = _slope_image(4.0, 3, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    for prior in ((*v, 0.0), None):
+        res, signal, p = est._fit(near, 30.0, focal, prior)
+        assert p is not None and p["corners"] and p["_series"] is not None
+        given = est._tile_fits(signal, res, 30.0, focal, p)
+        assert len(given) == 4
+        assert given == est._tile_fits(signal, res, 30.0, focal)
+
+
 def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     """A trusted blind fit's corner tiles are fitted at the velocity it found: they agree
     on the level frames and not on frames whose halves show two scales."""

@@ -257,12 +257,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
-        res, signal = self._fit(arr, fps, focal_px, prior)
+        res, signal, p = self._fit(arr, fps, focal_px, prior)
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
         wanted = self._distrust(res) is None if level else self._holds_shell(res)
-        fits = self._tile_fits(signal, res, fps, focal_px) if wanted else []
+        fits = self._tile_fits(signal, res, fps, focal_px, p) if wanted else []
         if not level:
             res, fits = self._level(arr, fps, focal_px, prior, res, fits)
             if res.attitude_deg is None:
@@ -312,13 +312,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
                 break
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
-            new, signal = self._fit(view(arr), fps, view.focal_px, prior)
+            new, signal, p = self._fit(view(arr), fps, view.focal_px, prior)
             if not self._holds_shell(new):
                 break
             rot, res, focal, made = turned, new, view.focal_px, step
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
-            fits = self._tile_fits(signal, res, fps, focal)
+            fits = self._tile_fits(signal, res, fps, focal, p)
         if made is None:
             return res, fits
         if len(fits) < 2 or tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0:
@@ -334,10 +334,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         return res, fits
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
-             prior: tuple[float, float, float] | None) -> tuple[DispersionResult, np.ndarray]:
-        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`), and the
-        scalar sequence it was made of; ``prior``: the camera's velocity ``(vx, vy)`` and its
-        sigma (0: exact), None for blind."""
+             prior: tuple[float, float, float] | None
+             ) -> tuple[DispersionResult, np.ndarray, dict[str, Any] | None]:
+        """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`), the scalar
+        sequence it was made of and that sequence's periodogram (:meth:`_fit_signal`);
+        ``prior``: the camera's velocity ``(vx, vy)`` and its sigma (0: exact), None for
+        blind."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
@@ -352,31 +354,37 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                 # session), and the luminance is fitted alone.
                 chroma = self._chroma(arr, weights)
                 if block_excess(chroma) <= BLOCK_CODED_MIN_EXCESS:
-                    res = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
+                    res, p = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
                     if self._distrust(res) is None:
-                        return res, chroma
+                        return res, chroma, p
                     luma = self._luma(arr)
-                    alt = self._fit_signal(luma, "luma", fps, focal_px, prior)
+                    alt, p_luma = self._fit_signal(luma, "luma", fps, focal_px, prior)
                     if self._standing(alt) >= self._standing(res):
-                        return alt, luma
-                    return res, chroma
+                        return alt, luma, p_luma
+                    return res, chroma, p
         signal, kind = self._signal(arr)
-        return self._fit_signal(signal, kind, fps, focal_px, prior), signal
+        res, p = self._fit_signal(signal, kind, fps, focal_px, prior)
+        return res, signal, p
 
     def _fit_signal(self, signal: np.ndarray, kind: str, fps: float, focal_px: float,
-                    prior: tuple[float, float, float] | None) -> DispersionResult:
+                    prior: tuple[float, float, float] | None
+                    ) -> tuple[DispersionResult, dict[str, Any] | None]:
         """Fit to one scalar ``(T, H, W)`` sequence of ``kind`` (``"luma"``/``"chroma"``),
-        the path taken recorded in the result's ``signal``."""
-        res = self._fit_path(signal, fps, focal_px, prior)
-        res.signal = f"{kind}/{res.signal or 'corners'}"
-        return res
-
-    def _fit_path(self, signal: np.ndarray, fps: float, focal_px: float,
-                  prior: tuple[float, float, float] | None) -> DispersionResult:
-        """Exact, prior or blind fit to one scalar sequence (:meth:`estimate`); a result from
-        the whole frame rather than the corner tiles says ``signal="full"``."""
-        t = signal.shape[0]
+        the path taken recorded in the result's ``signal``, and the sequence's periodogram
+        (:meth:`_fit_periodogram`; None where none can be fitted), whose corner tiles'
+        mode series the tile check takes (:meth:`_tile_fits`)."""
         p = self._fit_periodogram(signal)
+        res = self._fit_path(signal, p, fps, focal_px, prior)
+        res.signal = f"{kind}/{res.signal or 'corners'}"
+        return res, p
+
+    def _fit_path(self, signal: np.ndarray, p: dict[str, Any] | None, fps: float,
+                  focal_px: float, prior: tuple[float, float, float] | None
+                  ) -> DispersionResult:
+        """Exact, prior or blind fit to one scalar sequence (:meth:`estimate`) from its
+        periodogram ``p``; a result from the whole frame rather than the corner tiles says
+        ``signal="full"``."""
+        t = signal.shape[0]
         if p is None:
             return self._failed(t)
         if prior is not None and prior[2] == 0:

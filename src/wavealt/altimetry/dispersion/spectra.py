@@ -83,6 +83,25 @@ def _remove_carried(g: np.ndarray, psi0: np.ndarray) -> None:
     g -= (coef[:, None, :] * e[None]).astype(g.dtype)
 
 
+def _modes_within(series: tuple[np.ndarray | None, np.ndarray | None] | None,
+                  shape: tuple[int, int], idx: np.ndarray
+                  ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Mode series ``series = (g, modes)`` (``g`` ``(parts, T, len(modes))``, ``modes`` the
+    plane's sorted indices of its modes) that hold every mode of ``idx`` (sorted) for parts
+    and frames ``shape``: ``(g, None)`` where they are the same modes, ``(g, positions of
+    idx in modes)`` where ``idx`` is a subset; ``(None, None)`` where they are not given,
+    are of other parts or frames, or lack a mode."""
+    if series is None or series[0] is None or series[0].shape[:2] != shape:
+        return None, None
+    g, modes = series
+    if modes is None or (modes.size == idx.size and np.array_equal(modes, idx)):
+        return (g, None) if g.shape[2] == idx.size else (None, None)
+    pos = np.searchsorted(modes, idx)
+    if pos.size and (pos[-1] >= modes.size or not np.array_equal(modes[pos], idx)):
+        return None, None
+    return g, pos
+
+
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -191,8 +210,9 @@ class _Spectra:
         ``carried``: the image velocity (px/frame, the table's convention) of a pattern that
         the water carries without dispersion (foam); its content is removed first
         (:meth:`_share_table`) and ``p["carried"]`` records it.  ``like``: a periodogram of
-        the same ``signal`` on the same tiles, whose mode series (``p["_series"]``) are
-        taken instead of transforming the tiles again.  ``max_modes``: at most this many modes
+        the same ``signal`` on the same tiles, whose mode series (``p["_series"]``, of the
+        plane's modes ``p["_series_modes"]``) are taken instead of transforming the tiles
+        again, where they hold every mode this one needs.  ``max_modes``: at most this many modes
         (default ``self.max_modes``).
         """
         t, h, w = signal.shape
@@ -208,33 +228,43 @@ class _Spectra:
         parts = _corners(signal, self.corner_tiles) if corners else [signal]
         series = None
         if like is not None and like["corners"] == corners and like["frames"] == t:
-            series = like.get("_series")
+            series = (like.get("_series"), like.get("_series_modes"))
         limit = self.max_modes if max_modes is None else max_modes
-        q, kx, ky, kappa, series = self._share_table(parts, basis, denom, limit,
-                                                     carried, series)
+        q, kx, ky, kappa, series, modes = self._share_table(parts, basis, denom, limit,
+                                                            carried, series)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
-                "tile": parts[0].shape[1:], "carried": carried, "_series": series}
+                "tile": parts[0].shape[1:], "carried": carried, "_series": series,
+                "_series_modes": modes}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
-                     series: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                     series: tuple[np.ndarray | None, np.ndarray | None] | None = None
+                     ) -> tuple[Any, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
-        parts; the modes' ``kx, ky, kappa``; and the parts' mean-free mode series
-        ``(parts, T, modes)`` complex64 (None where ``carried`` changed them).  With
-        ``carried`` (px/frame), each mode's least-squares component at the carried
-        pattern's phase step ``-kappa . carried`` is removed first
-        (:func:`_remove_carried`).  ``series``: those of the same parts, already taken (a
-        copy is changed)."""
+        parts; the modes' ``kx, ky, kappa``; the parts' mean-free mode series
+        ``(parts, T, modes)`` complex64 (None where ``carried`` changed them) and the
+        plane's indices of their modes.  With ``carried`` (px/frame), each mode's
+        least-squares component at the carried pattern's phase step ``-kappa . carried`` is
+        removed first (:func:`_remove_carried`).  ``series``: ``(series, their modes)`` of
+        the same parts, already taken, used where they hold every mode (a copy is
+        changed)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
-        if series is not None and series.shape == (len(parts), t, idx.size):
-            # the same memory layout (order "K"): einsum and matmul sum in its order
-            g = series.copy(order="K") if carried is not None else series
+        given, pos = _modes_within(series, (len(parts), t), idx)
+        if given is not None:
+            # a mode's series and mean are its own: taken from the same transform they are
+            # the same bits; the same memory layout (order "K"): einsum and matmul sum in
+            # its order
+            if pos is not None:
+                g = given[:, :, pos]
+            else:
+                g = given.copy(order="K") if carried is not None else given
         else:
             g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
             # the temporal mean of every pixel, removed where it is cheap: per selected mode
             g -= g.mean(axis=1, keepdims=True)
+        modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
         x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
@@ -261,7 +291,7 @@ class _Spectra:
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
-                None if carried is not None else g)
+                None if carried is not None else g, None if carried is not None else modes)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the

@@ -204,14 +204,18 @@ class _Trust:
         return res.reason
 
     def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                   focal_px: float) -> list[tuple[float, float, float, float]]:
+                   focal_px: float, p: dict[str, Any] | None = None
+                   ) -> list[tuple[float, float, float, float]]:
         """Each corner tile of ``signal`` fitted alone at the fit's velocity (m/s; the tile's
         own altitude scales it to pixels), with the aided search of :meth:`_aided` on a
         quarter of the modes: ``(x, y, log altitude, sd_log)`` of every tile whose fit holds
         a shell's peak (significant and prominent, as :meth:`_distrust` asks, however wide
         its interval), ``(x, y)`` its centre in px from the frame's centre.  A tile is
         searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a tilt within the
-        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell."""
+        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell.
+        ``p``: the fit's periodogram of ``signal`` on the same corner tiles, whose mode
+        series the tiles take where they hold the tile's modes, instead of transforming the
+        tiles again (the same bits)."""
         t = signal.shape[0]
         # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
         # grid as the whole range's
@@ -224,14 +228,21 @@ class _Trust:
                                    / math.log(hi / lo)))
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
+        series = None
+        if (p is not None and p["corners"] and p.get("_series") is not None
+                and tuple(p["tile"]) == tiles[0].shape[1:]):
+            series = p["_series"]
         fits = []
-        for tile, (x, y) in zip(tiles, centres):
+        for i, (tile, (x, y)) in enumerate(zip(tiles, centres)):
+            like = (None if series is None
+                    else {"corners": False, "frames": t, "_series": series[i:i + 1],
+                          "_series_modes": p["_series_modes"]})
             # a quarter of the modes: the tile holds a quarter of the corners' data
-            p = self._fit_periodogram(tile, corners=False,
+            q = self._fit_periodogram(tile, corners=False, like=like,
                                       max_modes=max(self.max_modes // 4, 8))
-            if p is None:
+            if q is None:
                 continue
-            r = near._aided(p, t, fps, focal_px, res.camera_velocity_mps)
+            r = near._aided(q, t, fps, focal_px, res.camera_velocity_mps)
             if self._holds_shell(r):
                 fits.append((x, y, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
         return fits

@@ -1,6 +1,8 @@
-"""Tilted cameras: the altimeter with the attitude known (``camera.NadirView``), measured
-from the frames themselves (the default, ``attitude="estimate"``) and ignored
-(``attitude="level"``), against the same scenes seen from nadir.
+"""Tilted cameras: the altimeter with the attitude known (``camera.NadirView``, the levelled
+frames then fitted as level, ``attitude="level"``, as the command line does for an attitude
+given), measured from the frames themselves (the default, ``attitude="estimate"``) and
+ignored (``attitude="level"`` on the tilted frames), against the same scenes seen from
+nadir (the attitude not given).
 
     .venv/bin/python benchmarks/bench_tilt.py --seeds 23,31 --sequences 40 [--out FILE]
         [--frames 10] [--mode exact|blind] [--workers 1]

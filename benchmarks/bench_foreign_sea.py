@@ -2,7 +2,7 @@
 
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
-        [--max-current 1.0] [--save-clips DIR] [--self-check]
+        [--max-current 1.0] [--max-tilt-deg 0] [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -21,6 +21,10 @@ The generator is written from the physics alone; it shares no code with ``waveal
   zenith adds glitter: a Gaussian in the facet slope about the pixel's specular slope, its
   variance a fraction of Cox & Munk's (1954) ``0.003 + 0.00512 U10``; in the others the sun
   lies outside every facet's specular cone, and the term is left out.
+* Camera: level, or with ``--max-tilt-deg`` tilted (even over the disc of that radius,
+  toward a random direction; the altimeter is not told): each pixel's ray meets the sea
+  plane (the grid linearly interpolated there) and its own view angle sets the Fresnel
+  factor, sky and glitter.
 * Sensor: exposure locked on frame 0 (median 0.3-0.5 of full scale after gamma), Poisson shot
   noise, read noise, gamma 1/2.2, 8 bits; JPEG (quality 70-92) in half of the clips.
 
@@ -56,6 +60,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 from scipy import fft as sfft  # noqa: E402
+from scipy import ndimage  # noqa: E402
 from scipy.special import gammaln  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
@@ -105,6 +110,8 @@ class Scene:
     full_well: float
     read_e: float
     jpeg_quality: int | None
+    tilt_deg: float = 0.0  # the optical axis from the vertical
+    tilt_toward: float = 0.0  # the image direction (from +x toward +y) it swings toward
 
     @property
     def focal_px(self) -> float:
@@ -121,10 +128,13 @@ class Scene:
         return (self.drift[0] - self.current[0], self.drift[1] - self.current[1])
 
 
-def draw_scene(seed: int, max_current: float = 1.0) -> Scene:
+def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0) -> Scene:
     """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
-    speed is its draw scaled to ``max_current``)."""
+    speed is its draw scaled to ``max_current``; the camera's tilt, even over the disc of
+    radius ``max_tilt_deg``, from a stream of its own, so that the rest is the same)."""
     r = np.random.default_rng(seed)
+    t = np.random.default_rng((seed, 3))
+    tilt, toward = max_tilt_deg * math.sqrt(t.random()), t.uniform(0, 2 * math.pi)
 
     def vec(top: float) -> Vec:
         speed, angle = r.uniform(0, top), r.uniform(0, 2 * math.pi)
@@ -145,7 +155,29 @@ def draw_scene(seed: int, max_current: float = 1.0) -> Scene:
     jpeg = int(r.integers(70, 93)) if r.random() < 0.5 else None
     return Scene(seed, h, hfov, u10, gamma, spread, wind, share, kp_ratio, counter, drift,
                  current, sky_c, sky_grad, water, glinty, sun_z, sun_az, width, gain,
-                 exposure, full_well, read_e, jpeg)
+                 exposure, full_well, read_e, jpeg, tilt, toward)
+
+
+def camera_rays(sc: Scene) -> tuple[np.ndarray, ...]:
+    """Per pixel of a pinhole whose optical axis is tilted ``sc.tilt_deg`` from the vertical
+    toward image direction ``sc.tilt_toward`` (a rotation about the image-plane axis
+    perpendicular to it, Rodrigues): the point its ray meets the sea, grid coordinates
+    (column, row; the level camera's centre pixel at the grid's centre), and the unit
+    vector from the sea toward the camera ``(vx, vy, vz)``, z up, in the level camera's
+    image axes."""
+    c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
+    px, py = np.meshgrid(c, c)
+    ray = np.stack([px, py, np.ones_like(px)])  # camera axes, z toward the sea
+    th, phi = math.radians(sc.tilt_deg), sc.tilt_toward
+    a = np.array([-math.sin(phi), math.cos(phi), 0.0])  # rotation axis
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    rot = np.eye(3) + math.sin(th) * k + (1 - math.cos(th)) * (k @ k)
+    d = np.einsum("ij,jyx->iyx", rot, ray)
+    n = np.sqrt(np.sum(d**2, axis=0))
+    centre = (GRID - 1) / 2
+    col = centre + sc.altitude_m * d[0] / d[2] / sc.gsd
+    row = centre + sc.altitude_m * d[1] / d[2] / sc.gsd
+    return col, row, -d[0] / n, -d[1] / n, d[2] / n
 
 
 def omni_spectrum(k: np.ndarray, kp: float, gamma: float) -> np.ndarray:
@@ -191,8 +223,12 @@ def random_amplitudes(sc: Scene, rng: np.random.Generator) -> np.ndarray:
     return np.sqrt(psi) * dk * (noise[0] + 1j * noise[1])
 
 
-def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
-    """Surface slopes (d eta/dx, d eta/dy) of the centre crop seen at frames 0..n-1.
+def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int,
+                 points: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Surface slopes (d eta/dx, d eta/dy) of the centre crop seen at frames 0..n-1, or with
+    ``points`` (grid column and row of each pixel, :func:`camera_rays`) at those points of
+    the periodic grid, linearly interpolated.
 
     The field's spectrum at k holds the wave travelling along k, ``A(k)``, and the one along
     -k, ``conj A(-k)``; the slopes are ``i k`` times it, and one complex inverse FFT gives
@@ -210,8 +246,14 @@ def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int) -> tuple[np.ndarray,
     lo = (GRID - SIZE) // 2
     out = np.empty((n_frames, SIZE, SIZE), np.complex128)
     for t in range(n_frames):
-        rows = sfft.ifft(p + q, axis=0, norm="forward")[lo:lo + SIZE]
-        out[t] = sfft.ifft(rows, axis=1, norm="forward")[:, lo:lo + SIZE]
+        if points is None:
+            rows = sfft.ifft(p + q, axis=0, norm="forward")[lo:lo + SIZE]
+            out[t] = sfft.ifft(rows, axis=1, norm="forward")[:, lo:lo + SIZE]
+        else:
+            field = sfft.ifft2(p + q, norm="forward")
+            at = [points[1], points[0]]
+            out[t].real = ndimage.map_coordinates(field.real, at, order=1, mode="grid-wrap")
+            out[t].imag = ndimage.map_coordinates(field.imag, at, order=1, mode="grid-wrap")
         p *= step_p
         q *= step_q
     return out.real, out.imag
@@ -222,12 +264,17 @@ def schlick(cos_i: np.ndarray) -> np.ndarray:
     return R0 + (1 - R0) * (1 - cos_i) ** 5
 
 
-def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
-    """Linear radiance of each pixel (units of the zenith sky) from the facet slopes."""
-    c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
-    px, py = np.meshgrid(c, c)  # image-plane ray slopes along x (columns) and y (rows)
-    nv = np.sqrt(1 + px**2 + py**2)
-    vx, vy, vz = -px / nv, -py / nv, 1 / nv  # unit vector from the sea toward the camera
+def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
+             view: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Linear radiance of each pixel (units of the zenith sky) from the facet slopes;
+    ``view``: each pixel's unit vector from the sea toward the camera (a tilted camera's,
+    :func:`camera_rays`), else a level camera's."""
+    if view is None:
+        c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
+        px, py = np.meshgrid(c, c)  # image-plane ray slopes along x (columns) and y (rows)
+        nv = np.sqrt(1 + px**2 + py**2)
+        view = (-px / nv, -py / nv, 1 / nv)  # unit vector from the sea toward the camera
+    vx, vy, vz = view
     inv = 1 / np.sqrt(1 + sx**2 + sy**2)
     nx, ny, nz = -sx * inv, -sy * inv, inv  # facet normal
     cos_i = np.clip(nx * vx + ny * vy + nz * vz, 0.0, 1.0)
@@ -269,8 +316,12 @@ def capture(sc: Scene, lum: np.ndarray,
 def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str, float]]:
     """The clip of scene ``sc``, uint8 ``(T, 256, 256)``, and its contrast (``capture``)."""
     rng = np.random.default_rng((sc.seed, 1))
-    sx, sy = slope_frames(sc, random_amplitudes(sc, rng), n_frames)
-    return capture(sc, radiance(sc, sx, sy), rng)
+    if sc.tilt_deg == 0.0:
+        sx, sy = slope_frames(sc, random_amplitudes(sc, rng), n_frames)
+        return capture(sc, radiance(sc, sx, sy), rng)
+    col, row, *view = camera_rays(sc)
+    sx, sy = slope_frames(sc, random_amplitudes(sc, rng), n_frames, (col, row))
+    return capture(sc, radiance(sc, sx, sy, tuple(view)), rng)
 
 
 @lru_cache(maxsize=1)
@@ -281,16 +332,18 @@ def _altimeter() -> Any:
 
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
-                  prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0) -> list[dict]:
+                  prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
+                  max_tilt_deg: float = 0.0) -> list[dict]:
     """One record per window of every row of clip ``seed``."""
-    sc = draw_scene(seed, max_current)
+    sc = draw_scene(seed, max_current, max_tilt_deg)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
     if save_dir:
         np.save(Path(save_dir) / f"clip{seed}.npy", frames)
         (Path(save_dir) / f"clip{seed}.json").write_text(json.dumps(truth, indent=1))
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
-                                  "glinty", "jpeg_quality", "texture_dn", "noise_dn")}
+                                  "glinty", "jpeg_quality", "texture_dn", "noise_dn",
+                                  "tilt_deg", "tilt_toward")}
     base["saturated_share"] = float(np.mean(frames == 255))
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
                 "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
@@ -423,6 +476,21 @@ def self_check() -> bool:
     wrong = min(abs(e) for e in errs["-u"] + errs["swap"])
     report("velocity_mps = drift - current (x columns, y rows)", right < 5 and wrong > 20,
            f"exact-mode errors %: {errs}")
+    # (5) the tilted camera's rays: untilted they sample the nadir crop itself; tilted by
+    # 12 deg toward +y, the optical axis meets the sea H tan(12 deg) along +y
+    col, row, *view = camera_rays(base)
+    sx, sy = slope_frames(base, sea, 2)
+    ray_sx, ray_sy = slope_frames(base, sea, 2, (col, row))
+    same = float(max(np.max(np.abs(sx - ray_sx)), np.max(np.abs(sy - ray_sy))))
+    tilted = replace(base, tilt_deg=12.0, tilt_toward=math.pi / 2)
+    col, row, *_ = camera_rays(tilted)
+    mid = (GRID - 1) / 2
+    axis = [float(np.mean(a[SIZE // 2 - 1:SIZE // 2 + 1, SIZE // 2 - 1:SIZE // 2 + 1]))
+            for a in (col, row)]
+    reach = (axis[1] - mid) * tilted.gsd / (tilted.altitude_m * math.tan(math.radians(12)))
+    report("tilted camera rays", same == 0.0 and abs(reach - 1) < 1e-3
+           and abs(axis[0] - mid) < 1e-9,
+           f"level rays vs crop {same:.1e}; axis reaches {reach:.5f} x H tan(tilt)")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")
@@ -440,6 +508,9 @@ def main() -> int:
                     help="the prior row's velocity sigma, m/s")
     ap.add_argument("--max-current", type=float, default=1.0,
                     help="the water current's top speed, m/s (the prior's error)")
+    ap.add_argument("--max-tilt-deg", type=float, default=0.0,
+                    help="tilt the camera by up to this many degrees from nadir (even over "
+                         "the disc), toward a random direction; the altimeter is not told")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -451,8 +522,10 @@ def main() -> int:
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
+    if not 0.0 <= a.max_tilt_deg <= 30.0:
+        ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
-                  max_current=a.max_current)
+                  max_current=a.max_current, max_tilt_deg=a.max_tilt_deg)
     t0, records = time.perf_counter(), list[dict]()
     with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
@@ -463,6 +536,7 @@ def main() -> int:
     summary = {"benchmark": "bench_foreign_sea", "clips": a.clips, "seed": a.seed,
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
+               "max_tilt_deg": a.max_tilt_deg,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

@@ -19,11 +19,12 @@ def _run(*args: str) -> subprocess.CompletedProcess:
 
 def test_the_generators_physics_checks_pass() -> None:
     """One wave's phase step, no advection when the current equals the drift, the slope
-    variance of the spectrum, and the altimeter's velocity convention."""
+    variance of the spectrum, the altimeter's velocity convention, and the tilted camera's
+    rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away)."""
     res = _run("--self-check")
     assert res.returncode == 0, res.stdout + res.stderr[-2000:]
     lines = res.stdout.splitlines()
-    assert sum(line.startswith("PASS") for line in lines) == 4
+    assert sum(line.startswith("PASS") for line in lines) == 5
     assert not any(line.startswith("FAIL") for line in lines)
 
 
@@ -40,3 +41,16 @@ def test_a_one_clip_run_reports_every_window(tmp_path) -> None:
     assert summary["metrics"]["exact10"]["all"]["windows"] == 3
     bad = _run("--clips", "1", "--rows", "blind99")
     assert bad.returncode == 2 and "unknown rows: blind99" in bad.stderr
+
+
+def test_a_tilted_run_records_each_clips_tilt_and_refuses_a_bad_one(tmp_path) -> None:
+    out = tmp_path / "tilted.json"
+    res = _run("--clips", "2", "--seed", "5", "--rows", "exact10", "--max-tilt-deg", "15",
+               "--out", str(out))
+    assert res.returncode == 0, res.stderr[-2000:]
+    saved = json.loads(out.read_text())
+    assert saved["max_tilt_deg"] == 15.0
+    tilts = {r["seed"]: r["tilt_deg"] for r in saved["records"]}
+    assert sorted(tilts) == [5, 6] and all(0.0 < t <= 15.0 for t in tilts.values())
+    bad = _run("--clips", "1", "--max-tilt-deg", "45")
+    assert bad.returncode == 2 and "--max-tilt-deg must be within 0-30; got 45" in bad.stderr

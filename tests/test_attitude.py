@@ -111,7 +111,10 @@ def test_a_tilt_no_tile_measures_moves_a_one_sided_reading_as_the_geometry_does(
     for tiles in ([centres[0], centres[3]], centres[:3], centres):
         assert unmeasured_tilt_var_log([(x, y, 0.0, 0.02) for x, y in tiles], focal, s) \
             == pytest.approx(0.0, abs=1e-15)
+    # no tile holds the waves: nothing says where the fit reads, taken at a corner tile's
     assert unmeasured_tilt_var_log([], focal, s) == 0.0
+    assert unmeasured_tilt_var_log([], focal, s, centres) == pytest.approx(
+        unmeasured_tilt_var_log([(*centres[2], 0.0, 0.02)], focal, s))
 
 
 def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:

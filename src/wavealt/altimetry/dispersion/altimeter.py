@@ -266,7 +266,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         if not level:
             res, fits = self._level(arr, fps, focal_px, prior, res, fits)
             if res.attitude_deg is None:
-                res.reason = self._unmeasured_tilt(fits, res, focal_px) or res.reason
+                res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
+                              or res.reason)
         res.mode = ("blind" if velocity_mps is None
                     else "prior" if velocity_sigma_mps > 0 else "exact")
         if self._distrust(res) is None:

@@ -107,7 +107,8 @@ def tile_centres(shape: tuple[int, int], tile: tuple[int, int]) -> list[tuple[fl
 
 
 def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal_px: float,
-                            prior_sd: float) -> float:
+                            prior_sd: float,
+                            centres: list[tuple[float, float]] | tuple = ()) -> float:
     """Variance of ``log H`` that a tilt the tiles ``fits`` cannot measure adds to a fit read
     where they hold the waves; each tile ``(x, y, log h, sd_log)`` as for :func:`fit_tilt`,
     ``prior_sd`` the prior standard deviation of each of the normal's parts ``a`` and ``b``
@@ -121,11 +122,14 @@ def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     they measure); along the others nothing in the frames measures it, and there the prior
     stands.  The variance is ``2.25 s^2 |P g|^2 / f^2``, ``P`` the projection onto the
     unmeasured directions: the whole centroid for one tile, its part across the line
-    through two, nothing for three or four corner tiles (never collinear), and nothing
-    without tiles (no evidence of where the fit reads).
+    through two, nothing for three or four corner tiles (never collinear).  Where no tile
+    holds the waves alone, nothing measures the tilt, nor says where in the frame the fit
+    reads: it is taken to read at the farthest of the tiles' ``centres``, as one tile there
+    (nothing without them).
     """
     if not fits:
-        return 0.0
+        r2 = max((x * x + y * y for x, y in centres), default=0.0)
+        return 2.25 * prior_sd**2 * r2 / focal_px**2
     arr = np.asarray(fits, dtype=np.float64)
     pos = arr[:, :2] / focal_px
     w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2

@@ -305,7 +305,8 @@ class _Trust:
                 f"camera: give its attitude)")
 
     def _unmeasured_tilt(self, fits: list[tuple[float, float, float, float]],
-                         res: DispersionResult, focal_px: float) -> str | None:
+                         res: DispersionResult, focal_px: float,
+                         shape: tuple[int, int]) -> str | None:
         """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
         levelled by the part of the tilt its corner tiles ``fits`` (:meth:`_tile_fits`)
         cannot measure (:func:`.attitude.unmeasured_tilt_var_log`, the prior
@@ -316,17 +317,23 @@ class _Trust:
         one tilted toward the other side give the same tiles, at altitudes apart by the
         scale that tilt makes there (a camera 13 degrees from nadir read 36 % high, at 1.4 %,
         from the one corner whose sea glittered)."""
+        tile = _corners(np.empty((1, *shape), np.float32), self.corner_tiles or 0.4)[0]
         var = unmeasured_tilt_var_log(fits, focal_px,
-                                      math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)))
+                                      math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)),
+                                      tile_centres(shape, tile.shape[1:]))
         if var <= 0.0:
             return None
         passed = self._distrust(res) is None
         res.altitude_std_m = res.altitude_m * math.sqrt((res.altitude_std_m / res.altitude_m)
                                                         ** 2 + var)
         if passed and self._distrust(res) is not None:
-            verb = "holds" if len(fits) == 1 else "hold"
-            return (f"only {len(fits)} of the 4 corner tiles {verb} the waves, on one side of "
-                    f"the frame: an unknown tilt of the camera moves the altitude by "
+            if not fits:
+                where = "none of the 4 corner tiles holds the waves alone"
+            else:
+                verb = "holds" if len(fits) == 1 else "hold"
+                where = (f"only {len(fits)} of the 4 corner tiles {verb} the waves, on one "
+                         f"side of the frame")
+            return (f"{where}: an unknown tilt of the camera moves the altitude by "
                     f"{100 * math.sqrt(var):.0f} % (1 sigma; give its attitude)")
         return None
 

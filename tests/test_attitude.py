@@ -117,6 +117,20 @@ def test_a_tilt_no_tile_measures_moves_a_one_sided_reading_as_the_geometry_does(
         unmeasured_tilt_var_log([(*centres[2], 0.0, 0.02)], focal, s))
 
 
+def test_a_tile_too_imprecise_to_tell_a_tilt_measures_nothing() -> None:
+    """Two precise tiles in the bottom row and a third at the top whose sigma (30 %) is
+    wider than any tilt within the prior moves it: the tilt across the row stays
+    unmeasured, as with the two alone; at 2 % the third tile measures it."""
+    focal, s = 223.0, math.sin(math.radians(7.5))
+    c = tile_centres((256, 256), (96, 96))
+    pair = [(*c[2], 0.0, 0.03), (*c[3], 0.0, 0.02)]
+    alone = unmeasured_tilt_var_log(pair, focal, s)
+    assert alone > 0.0
+    vague = unmeasured_tilt_var_log([*pair, (*c[0], 0.0, 0.30)], focal, s)
+    assert vague == pytest.approx(alone, rel=0.05)
+    assert unmeasured_tilt_var_log([*pair, (*c[0], 0.0, 0.02)], focal, s) == 0.0
+
+
 def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:
     """Unequal sigmas move the centroid toward the precise tile: a diagonal pair leaves the
     tilt across it unmeasured once one tile outweighs the other."""

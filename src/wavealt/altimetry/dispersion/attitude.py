@@ -109,23 +109,25 @@ def tile_centres(shape: tuple[int, int], tile: tuple[int, int]) -> list[tuple[fl
 def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal_px: float,
                             prior_sd: float,
                             centres: list[tuple[float, float]] | tuple = ()) -> float:
-    """Variance of ``log H`` that a tilt the tiles ``fits`` cannot measure adds to a fit read
+    """Variance of ``log H`` that a tilt the tiles ``fits`` do not measure adds to a fit read
     where they hold the waves; each tile ``(x, y, log h, sd_log)`` as for :func:`fit_tilt`,
     ``prior_sd`` the prior standard deviation of each of the normal's parts ``a`` and ``b``
     (the sine of a tilt about each axis).
 
     To first order in the tilt, a tile at ``(x, y)`` reads ``log h = log H - 1.5 (a x + b y)
     / f``.  The fit reads about where its evidence lies, the tiles' weighted centroid ``g``
-    (weights ``1 / sd^2``), so it misses ``log H`` by ``1.5 (a, b) . g / f``.  The tiles'
-    differences from one another measure the tilt along the directions their offsets from
-    ``g`` span (:func:`fit_tilt`, :meth:`TiltFit.significant` and the levelling act on what
-    they measure); along the others nothing in the frames measures it, and there the prior
-    stands.  The variance is ``2.25 s^2 |P g|^2 / f^2``, ``P`` the projection onto the
-    unmeasured directions: the whole centroid for one tile, its part across the line
-    through two, nothing for three or four corner tiles (never collinear).  Where no tile
-    holds the waves alone, nothing measures the tilt, nor says where in the frame the fit
-    reads: it is taken to read at the farthest of the tiles' ``centres``, as one tile there
-    (nothing without them).
+    (weights ``w = 1 / sd^2``), so it misses ``log H`` by ``1.5 (a, b) . g / f``.  The tiles'
+    differences from one another measure the tilt with the information ``M = 2.25 sum w
+    (p - g)(p - g)^T / f^2`` (``p`` a tile's place); along an eigenvector of ``M`` whose
+    eigenvalue exceeds the prior's ``1 / s^2`` the tiles measure the tilt better than the
+    prior knows it (:func:`fit_tilt`, :meth:`TiltFit.significant` and the levelling act on
+    it), along the others the prior stands.  The variance is ``2.25 s^2 |P g|^2 / f^2``,
+    ``P`` the projection onto those unmeasured directions: the whole centroid for one
+    tile, its part across the line through two, nothing for three or four precise corner
+    tiles (never collinear); a tile too imprecise to tell a tilt within the prior measures
+    nothing.  Where no tile holds the waves alone, nothing measures the tilt, nor says
+    where in the frame the fit reads: it is taken to read at the farthest of the tiles'
+    ``centres``, as one tile there (nothing without them).
     """
     if not fits:
         r2 = max((x * x + y * y for x, y in centres), default=0.0)
@@ -134,10 +136,11 @@ def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     pos = arr[:, :2] / focal_px
     w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
     centre = w @ pos / float(w.sum())
-    _, sv, vt = np.linalg.svd(pos - centre)
-    measured = vt[:int(np.sum(sv > 1e-9 * max(float(np.max(np.abs(pos))), 1e-30)))]
-    free = centre - measured.T @ (measured @ centre)
-    return 2.25 * prior_sd**2 * float(free @ free)
+    d = pos - centre
+    info, vec = np.linalg.eigh(2.25 * (d * w[:, None]).T @ d)
+    free = vec[:, info * prior_sd**2 < 1.0]
+    part = free.T @ centre
+    return 2.25 * prior_sd**2 * float(part @ part)
 
 
 def fit_tilt(fits: list[tuple[float, float, float, float]],

@@ -228,6 +228,8 @@ class _Trust:
                                    / math.log(hi / lo)))
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
+        # a tile's significance bar is the fit's for its share of the modes (below)
+        n_fit = p["kappa"].size if p is not None else self.max_modes
         series = None
         if (p is not None and p["corners"] and p.get("_series") is not None
                 and tuple(p["tile"]) == tiles[0].shape[1:]):
@@ -243,15 +245,20 @@ class _Trust:
             if q is None:
                 continue
             r = near._aided(q, t, fps, focal_px, res.camera_velocity_mps)
-            if self._holds_shell(r):
+            if self._holds_shell(r, math.sqrt(q["kappa"].size / n_fit)):
                 fits.append((x, y, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m))
         return fits
 
     @staticmethod
-    def _holds_shell(res: DispersionResult) -> bool:
+    def _holds_shell(res: DispersionResult, scale: float = 1.0) -> bool:
         """Whether a fit found a shell's peak: significant and prominent (the first two of
-        :meth:`_distrust`'s tests), however wide its interval."""
-        return res.significance >= MIN_SIGNIFICANCE and res.quality >= TRUSTED_QUALITY
+        :meth:`_distrust`'s tests), however wide its interval.  ``scale``: of the
+        significance bar, for a fit on a part of the modes (a corner tile, :meth:`_tile_fits`):
+        the score's noise falls as one over the square root of the modes averaged, so the
+        same evidence in each mode stands that much less far above it (a tile on 1000 of
+        the fit's 2598 modes, 0.62 of the bar)."""
+        return (res.significance >= MIN_SIGNIFICANCE * scale
+                and res.quality >= TRUSTED_QUALITY)
 
     def _tile_verdict(self, fits: list[tuple[float, float, float, float]],
                       res: DispersionResult) -> str | None:
@@ -331,8 +338,8 @@ class _Trust:
                 where = "none of the 4 corner tiles holds the waves alone"
             else:
                 verb = "holds" if len(fits) == 1 else "hold"
-                where = (f"only {len(fits)} of the 4 corner tiles {verb} the waves, on one "
-                         f"side of the frame")
+                where = (f"{len(fits)} of the 4 corner tiles {verb} the waves, too few or too "
+                         f"imprecise to measure the camera's tilt")
             return (f"{where}: an unknown tilt of the camera moves the altitude by "
                     f"{100 * math.sqrt(var):.0f} % (1 sigma; give its attitude)")
         return None

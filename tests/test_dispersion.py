@@ -114,18 +114,23 @@ def test_aided_fast_drift_falls_back_to_the_whole_frame() -> None:
     """2.9 m/s at 2.9 m carries the water 7.5 px per frame, across a 48-px corner tile
     (``corner_tiles=0.2``) within a few frames: the tiles' fit finds no prominent peak (it
     read 10.8 m), and the whole frame's, which keeps the water in view longer, is taken
-    instead.  The default 96-px tiles find the shell themselves."""
+    instead (the camera declared level: no 48-px tile holds the waves either, so with the
+    attitude unknown nothing measures a tilt, and that fit is not trusted, and says why).
+    The default 96-px tiles find the shell themselves."""
     cfg = preset_config("realistic", sequences=40, size=256, frames=30, seed=11)
     sc = cfg.sample_scenario(4)
     assert sc.altitude_m < 3.0 and np.hypot(*sc.camera_velocity_mps) > 2.5
     frames = generate_sequence(sc, cfg).clean
     kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
-    est = DispersionAltimeter(signal="luma", corner_tiles=0.2)
+    est = DispersionAltimeter(signal="luma", corner_tiles=0.2, attitude="level")
     corners = est._aided(est._periodogram(est._luma(frames)), frames.shape[0], **kw)
     assert corners.quality < TRUSTED_QUALITY
     res = est.estimate(frames, **kw)
     assert res.signal == "luma/full"
     assert res.trusted and abs(res.altitude_m / sc.altitude_m - 1.0) < 0.02
+    unknown = DispersionAltimeter(signal="luma", corner_tiles=0.2).estimate(frames, **kw)
+    assert unknown.altitude_m == res.altitude_m and not unknown.trusted
+    assert "none of the 4 corner tiles holds the waves alone" in unknown.reason
     res = DispersionAltimeter(signal="luma").estimate(frames, **kw)
     assert abs(res.altitude_m / sc.altitude_m - 1.0) < 0.02
 

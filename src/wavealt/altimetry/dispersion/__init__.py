@@ -73,7 +73,8 @@ fit that model significantly better than one scale, the frames are levelled at t
 (:class:`wavealt.camera.NadirView`) and fitted again, and the result records the attitude.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt
 toward the other side (nor any tilt where no tile holds them alone), and with the attitude
-unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those tiles read: it is made of them.
+unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those
+tiles read: it is made of them.
 
 References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
 image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;

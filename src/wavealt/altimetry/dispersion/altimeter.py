@@ -127,9 +127,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         is tilted (:mod:`.attitude`, ``ATTITUDE_LEVEL``), the frames are levelled at the
         tilt measured and fitted again (:meth:`_level`; the result's ``attitude_deg``), and
         where the tiles that hold the waves cannot measure the tilt (all on one side of the
-        frame, or none) a tilt of about ``ATTITUDE_PRIOR_SD_DEG`` per axis joins the uncertainty
-        (:meth:`_unmeasured_tilt`); ``"level"``: the frames are fitted as those of a camera
-        looking straight down (frames already levelled at an attitude known,
+        frame, or none) a tilt of about ``ATTITUDE_PRIOR_SD_DEG`` per axis joins the
+        uncertainty (:meth:`_unmeasured_tilt`); ``"level"``: the frames are fitted as those
+        of a camera looking straight down (frames already levelled at an attitude known,
         :class:`wavealt.camera.NadirView`, may still be tilted by the attitude's error).
     """
 

@@ -212,8 +212,8 @@ class _Spectra:
         (:meth:`_share_table`) and ``p["carried"]`` records it.  ``like``: a periodogram of
         the same ``signal`` on the same tiles, whose mode series (``p["_series"]``, of the
         plane's modes ``p["_series_modes"]``) are taken instead of transforming the tiles
-        again, where they hold every mode this one needs.  ``max_modes``: at most this many modes
-        (default ``self.max_modes``).
+        again, where they hold every mode this one needs.  ``max_modes``: at most this many
+        modes (default ``self.max_modes``).
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))

@@ -228,8 +228,10 @@ class _Trust:
                                    / math.log(hi / lo)))
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
-        # a tile's significance bar is the fit's for its share of the modes (below)
-        n_fit = p["kappa"].size if p is not None else self.max_modes
+        # a tile's significance bar is the fit's for its share of the fit's modes (those of
+        # the corner tiles' plane, ``max_modes`` of it, where ``p`` is not given)
+        n_fit = (p["kappa"].size if p is not None
+                 else self._plane(*tiles[0].shape[1:])[4].size)
         series = None
         if (p is not None and p["corners"] and p.get("_series") is not None
                 and tuple(p["tile"]) == tiles[0].shape[1:]):
@@ -324,6 +326,7 @@ class _Trust:
         one tilted toward the other side give the same tiles, at altitudes apart by the
         scale that tilt makes there (a camera 13 degrees from nadir read 36 % high, at 1.4 %,
         from the one corner whose sea glittered)."""
+        # the corner tiles' places (:meth:`_tile_fits` cuts them so; views of an empty frame)
         tile = _corners(np.empty((1, *shape), np.float32), self.corner_tiles or 0.4)[0]
         var = unmeasured_tilt_var_log(fits, focal_px,
                                       math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)),

@@ -158,6 +158,12 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0) -
                  exposure, full_well, read_e, jpeg, tilt, toward)
 
 
+def pixel_slopes(sc: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's ray slopes along x (columns) and y (rows) in its camera's axes."""
+    c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
+    return np.meshgrid(c, c)
+
+
 def camera_rays(sc: Scene) -> tuple[np.ndarray, ...]:
     """Per pixel of a pinhole whose optical axis is tilted ``sc.tilt_deg`` from the vertical
     toward image direction ``sc.tilt_toward`` (a rotation about the image-plane axis
@@ -165,8 +171,7 @@ def camera_rays(sc: Scene) -> tuple[np.ndarray, ...]:
     (column, row; the level camera's centre pixel at the grid's centre), and the unit
     vector from the sea toward the camera ``(vx, vy, vz)``, z up, in the level camera's
     image axes."""
-    c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
-    px, py = np.meshgrid(c, c)
+    px, py = pixel_slopes(sc)
     ray = np.stack([px, py, np.ones_like(px)])  # camera axes, z toward the sea
     th, phi = math.radians(sc.tilt_deg), sc.tilt_toward
     a = np.array([-math.sin(phi), math.cos(phi), 0.0])  # rotation axis
@@ -270,8 +275,7 @@ def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
     ``view``: each pixel's unit vector from the sea toward the camera (a tilted camera's,
     :func:`camera_rays`), else a level camera's."""
     if view is None:
-        c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
-        px, py = np.meshgrid(c, c)  # image-plane ray slopes along x (columns) and y (rows)
+        px, py = pixel_slopes(sc)
         nv = np.sqrt(1 + px**2 + py**2)
         view = (-px / nv, -py / nv, 1 / nv)  # unit vector from the sea toward the camera
     vx, vy, vz = view

@@ -230,15 +230,21 @@ def test_bad_prior_arguments_are_refused() -> None:
         est.estimate(frames, fps=30.0, focal_px=FOCAL_PX, velocity_mps=1.0)
 
 
+def _fit_result(altitude_m: float, sd_rel: float, *, quality: float = 0.9,
+                significance: float = 0.0) -> DispersionResult:
+    """A finished fit's result as the trust tests see it (no velocity, not yet judged)."""
+    return DispersionResult(altitude_m=altitude_m, altitude_std_m=altitude_m * sd_rel,
+                            camera_velocity_mps=(0.0, 0.0), quality=quality, trusted=False,
+                            reason=None, mode="blind", frames=30, n_modes=100,
+                            significance=significance)
+
+
 def test_of_two_fits_of_a_window_the_one_that_passes_the_trust_tests_is_kept() -> None:
     """The chroma/luminance choice: a higher grade does not outrank a failed trust test."""
     est = DispersionAltimeter()
 
     def fit(quality: float, significance: float, rel_sd: float = 0.01) -> DispersionResult:
-        return DispersionResult(altitude_m=5.0, altitude_std_m=5.0 * rel_sd,
-                                camera_velocity_mps=(0.0, 0.0), quality=quality, trusted=False,
-                                reason=None, mode="blind", frames=30, n_modes=100,
-                                significance=significance)
+        return _fit_result(5.0, rel_sd, quality=quality, significance=significance)
 
     trusted = fit(0.5, 100.0)
     assert est._distrust(trusted) is None
@@ -255,10 +261,7 @@ def test_a_trusted_interval_holds_no_altitude_more_than_ten_percent_from_the_est
     altitude reaches an altitude that the estimate exceeds by more than 10 % is not trusted
     (at 3 sd = 9.99 %, a truth at the interval's low end is 10.5 % below the estimate)."""
     est = DispersionAltimeter()
-    res = DispersionResult(altitude_m=5.0, altitude_std_m=5.0 * rel3 / 3.0,
-                           camera_velocity_mps=(0.0, 0.0), quality=0.8, trusted=False,
-                           reason=None, mode="blind", frames=30, n_modes=100,
-                           significance=100.0)
+    res = _fit_result(5.0, rel3 / 3.0, quality=0.8, significance=100.0)
     low = res.altitude_m * np.exp(-3.0 * res.altitude_std_m / res.altitude_m)
     worst = res.altitude_m / low - 1.0  # the error, were the truth at the interval's low end
     reason = est._distrust(res)
@@ -407,12 +410,6 @@ def test_cli_takes_frames_levelled_at_an_attitude_given_as_level(tmp_path, run_c
     assert code == 0, err
     res = json.loads(out)
     assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res
-
-
-def _fit_result(altitude_m: float, sd_rel: float) -> DispersionResult:
-    return DispersionResult(altitude_m=altitude_m, altitude_std_m=altitude_m * sd_rel,
-                            camera_velocity_mps=(0.0, 0.0), quality=0.9, trusted=False,
-                            reason=None, mode="exact", frames=10, n_modes=500)
 
 
 def test_a_fit_that_its_tiles_do_not_read_is_not_trusted() -> None:

@@ -247,21 +247,16 @@ BLIND_PEAK_CANDIDATES = 4
 #: refined, replaces the continuation's velocity
 #: where it scores ``BLIND_SEED_MIN_Z`` of the profile's noise more (on the tuning seeds,
 #: the best of many velocities on noise beat it by 3-10 sigma at low altitudes, the
-#: shell's ridge by 30-100 on the realistic preset, and by 12-20 on the second generator's
-#: faint seas, where 20 left the profile on noise: a camera 8.6 m up read 1.1 m, its shell
-#: 19.5 sigma above the continuation).  Used only where the start is pinned to an end of
-#: the range.  Realistic preset, tuning seeds 101 and 202, 30 / 15 frames and prior (see
+#: shell's ridge by 30-100).  Used only where the start is pinned to an end of the range.
+#: Realistic preset, tuning seeds 101 and 202, 30 / 15 frames and prior (see
 #: ``docs/dispersion.md``): mean |log error| better in 9 of 12 cells, 20 sigma against none
-#: 14 windows fixed and 6 broken against 14 and 10; 12 against 20 (twentieth session):
-#: second generator 1000/2000, 1 s blind, relative MAE 26.0 -> 18.1 % (9 windows mended,
-#: 2 broken, none trusted either way), realistic 1 s and 0.5 s unchanged but for 6
-#: untrusted windows (3 better, 3 worse); 8 mended more and broke more.
+#: 14 windows fixed and 6 broken against 14 and 10.
 BLIND_SEED_EVERY = 4
 BLIND_MAP_KAPPA = 0.5
 BLIND_MAP_REACH = 2.0
 BLIND_SEED_PEAKS = 8
 BLIND_MAX_SPEED_MPS = 5.0
-BLIND_SEED_MIN_Z = 12.0
+BLIND_SEED_MIN_Z = 20.0
 #: A pattern carried across the image without dispersion (foam riding with the water) is
 #: removed from a blind fit's periodogram (:meth:`DispersionAltimeter._blind`) where the
 #: median mode explains at least this many times its mean share at the pattern's phase

@@ -47,6 +47,7 @@ import math
 import os
 import sys
 import time
+from collections import Counter
 from contextlib import nullcontext
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache, partial
@@ -371,7 +372,10 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
 
 
 def _stats(recs: list[dict]) -> dict[str, Any]:
-    """Metrics of a set of window records (all windows, estimates that raised excluded)."""
+    """Metrics of a set of window records (all windows, estimates that raised excluded), and
+    the kinds of reason the untrusted ones gave (figures as N, most frequent first)."""
+    from wavealt.altimetry.dispersion.result import reason_class
+
     if not recs:
         return {"windows": 0}
     h, est, std, tr = (np.array([r[key] for r in recs])
@@ -398,7 +402,9 @@ def _stats(recs: list[dict]) -> dict[str, Any]:
             "near_double": int(double.sum()), "near_double_trusted": int((double & tr).sum()),
             "median_texture_snr": float(np.median([r["texture_dn"] / r["noise_dn"]
                                                    for r in recs])),
-            "median_latency_s": float(np.median([r["latency_s"] for r in recs]))}
+            "median_latency_s": float(np.median([r["latency_s"] for r in recs])),
+            "untrusted_reasons": dict(Counter(reason_class(r["reason"]) for r in recs
+                                              if not r["trusted"]).most_common())}
 
 
 def summarize(records: list[dict], rows: tuple[str, ...]) -> dict[str, Any]:

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from wavealt.altimetry.dispersion import reason_class
 from wavealt.dataset import Dataset
 from wavealt.evaluation import (
     METRIC_KEYS,
@@ -194,12 +195,61 @@ def test_dispersion_reports_the_sequences_it_trusts(tiny_dataset, tmp_path) -> N
         on_disk = np.array([float(r["quality"]) for r in rows if r["condition"] == c])
         np.testing.assert_allclose(on_disk, q, atol=5e-4)
         assert [r["trusted"] for r in rows if r["condition"] == c] == [str(int(t)) for t in trusted]
+        # each sequence's uncertainty and reason: a reason exactly where it is not trusted,
+        # the coverage counted from them, and every flagged sequence's reason counted once
+        std = res.predictions[c]["std_m"]
+        assert np.all(std > 0)
+        mine = [r for r in rows if r["condition"] == c]
+        np.testing.assert_allclose([float(r["std_m"]) for r in mine], std, rtol=1e-3)
+        assert [bool(r["reason"]) for r in mine] == [not t for t in trusted]
+        err = np.abs(res.predictions[c]["pred_m"] - truth)
+        assert m["coverage_3sigma"] == pytest.approx(float(np.mean(err <= 3 * std)))
+        assert sum(m["flag_reasons"].values()) == m["flagged"]
+        assert set(m["flag_reasons"]) == {reason_class(r["reason"]) for r in mine
+                                          if r["trusted"] == "0"}
     on_disk = json.loads((tmp_path / "metrics.json").read_text())
     assert set(on_disk["clean"]["trusted"]) == set(METRIC_KEYS)
     table = (tmp_path / "table.md").read_text()
     assert "The sequences it trusts (it flags the others itself: not trusted)" in table
     flagged = res.metrics["clean"]["flagged"]
     assert f"| Clean | {flagged} of {len(truth)} |" in table
+    if flagged:
+        kind, count = next(iter(res.metrics["clean"]["flag_reasons"].items()))
+        assert f"{kind} ({count})" in table
+
+
+def test_reason_kinds_hide_the_figures_and_keep_the_words() -> None:
+    """Two reasons that differ only in what was measured are one kind; counts of tiles and
+    the sigma level named in the rule are kept."""
+    a = reason_class("3-sigma uncertainty 12 % of the altitude")
+    assert a == reason_class("3-sigma uncertainty 31 % of the altitude")
+    assert a == "3-sigma uncertainty N % of the altitude"
+    assert reason_class("the corner tiles that hold the waves read +21 % from the fit (4.3 "
+                        "sigma): its peak is not theirs") == (
+        "the corner tiles that hold the waves read N % from the fit (N sigma): its peak is "
+        "not theirs")
+    assert reason_class("velocity 1.23 m/s from the prior's mean, beyond 3 sigma") == (
+        "velocity N m/s from the prior's mean, beyond 3 sigma")
+    assert reason_class("2 of the 4 corner tiles hold the waves") != reason_class(
+        "1 of the 4 corner tiles holds the waves")
+    assert reason_class(None) is None
+
+
+def test_trust_summary_counts_coverage_and_reasons() -> None:
+    from wavealt.evaluation import trust_summary
+
+    out = trust_summary([10.0, 11.0, np.nan, 5.0], [0.1, 1.0, np.nan, 0.5],
+                        [True, False, False, False],
+                        [None, "3-sigma uncertainty 27 % of the altitude", "frames too dark",
+                         "3-sigma uncertainty 12 % of the altitude"], [10.2, 10.0, 7.0, 6.0])
+    # 10 +- 0.3 holds 10.2; 11 +- 3 holds 10.0; 5 +- 1.5 holds 6.0; the NaN is left out
+    assert out["coverage_3sigma"] == 1.0
+    assert out["flag_reasons"] == {"3-sigma uncertainty N % of the altitude": 2,
+                                   "frames too dark": 1}
+    assert trust_summary([12.0], [0.5], [True], [None], [10.0]) == {
+        "coverage_3sigma": 0.0, "flag_reasons": {}}
+    assert math.isnan(trust_summary([np.nan], [np.nan], [False], [None], [3.0])[
+        "coverage_3sigma"])
 
 
 def test_printed_numbers_never_read_minus_zero() -> None:

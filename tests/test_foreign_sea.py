@@ -39,6 +39,10 @@ def test_a_one_clip_run_reports_every_window(tmp_path) -> None:
         ("exact10", 0), ("exact10", 10), ("exact10", 20),
         ("prior10", 0), ("prior10", 10), ("prior10", 20)]
     assert summary["metrics"]["exact10"]["all"]["windows"] == 3
+    for row in ("exact10", "prior10"):
+        stats = summary["metrics"][row]["all"]
+        untrusted = sum(not r["trusted"] for r in saved["records"] if r["row"] == row)
+        assert sum(stats["untrusted_reasons"].values()) == untrusted
     bad = _run("--clips", "1", "--rows", "blind99")
     assert bad.returncode == 2 and "unknown rows: blind99" in bad.stderr
 

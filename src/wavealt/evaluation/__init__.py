@@ -24,6 +24,7 @@ from wavealt.evaluation.metrics import (
     altitude_metrics,
     fmt,
     paired_mae_difference,
+    trust_summary,
 )
 from wavealt.evaluation.tables import (
     CONDITION_LABELS,
@@ -37,4 +38,4 @@ __all__ = ["CONDITION_LABELS", "METRIC_KEYS", "PAPER_TABLE2", "PRIOR_SIGMA_MPS",
            "ConstantEstimator", "DispersionEstimator", "Estimator", "EvaluationResult",
            "GradedEstimate", "altitude_metrics", "dispersion_of", "dispersion_of_input",
            "evaluate", "fmt", "paired_mae_difference", "parse_estimator", "predictions_csv",
-           "read_abs_errors", "table_markdown", "train_split_mean_m"]
+           "read_abs_errors", "table_markdown", "train_split_mean_m", "trust_summary"]

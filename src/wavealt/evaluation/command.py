@@ -3,11 +3,17 @@
 ``evaluate`` writes into its output folder:
 
 ``metrics.json``    ``{"<condition>": {"n", "mae_m", "rmse_m", "bias_m", "max_abs_err_m"}}``
-                    (bias = mean of predicted - true; n = sequences with a finite estimate)
+                    (bias = mean of predicted - true; n = sequences with a finite estimate);
+                    for the dispersion altimeter also the count it ``flagged``, the metrics
+                    of the sequences it ``trusted``, the share whose error its 3-sigma
+                    interval covers (``coverage_3sigma``) and why it flagged the others
+                    (``flag_reasons``: kind of reason -> count, figures as ``N``)
 ``predictions.csv`` one row per (condition, sequence); for the dispersion altimeter also its
-                    ``quality`` and whether it ``trusted`` the estimate (1 / 0)
+                    ``quality``, whether it ``trusted`` the estimate (1 / 0), its one-sigma
+                    uncertainty ``std_m`` and the ``reason`` it is not trusted
 ``table.md``        laid out like the paper's Table 2, with the glint-penalty row and the
-                    constant baseline
+                    constant baseline; for the dispersion altimeter the sequences it trusts,
+                    the 3-sigma coverage and why it flagged the others
 ``fig5_predicted_vs_actual.png``, ``fig6_error_distribution.png``
 """
 
@@ -30,7 +36,7 @@ from wavealt.evaluation.estimators import (
     parse_estimator,
     train_split_mean_m,
 )
-from wavealt.evaluation.metrics import EvaluationResult, altitude_metrics
+from wavealt.evaluation.metrics import EvaluationResult, altitude_metrics, trust_summary
 from wavealt.evaluation.tables import predictions_csv, table_markdown
 from wavealt.io import atomic_write_text, check_output_folder
 from wavealt.plots import figure_error_distribution, figure_predicted_vs_actual
@@ -100,10 +106,13 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         p = np.empty(len(records))
         q = np.full(len(records), np.nan)
         trusted = np.zeros(len(records), dtype=bool)
+        std = np.full(len(records), np.nan)
+        reasons: list[str | None] = [None] * len(records)
         for i, r in enumerate(records):
             if graded is not None:
                 g = graded(ds, c, r)
                 p[i], q[i], trusted[i] = g.altitude_m, g.quality, g.trusted
+                std[i], reasons[i] = g.std_m, g.reason
             else:
                 p[i] = est.estimate(ds, c, r)
             bar.update()
@@ -113,8 +122,12 @@ def evaluate(dataset: Path | str, estimator: str | Estimator, *,
         if graded is not None:
             metrics[c]["flagged"] = int(np.count_nonzero(~trusted))
             metrics[c]["trusted"] = altitude_metrics(p[trusted], true_m[trusted])
+            metrics[c].update(trust_summary(p, std, trusted, reasons, true_m))
             preds[c]["quality"] = q
             preds[c]["trusted"] = trusted
+            preds[c]["std_m"] = std
+            preds[c]["reason"] = np.array(["" if x is None else x for x in reasons],
+                                          dtype=object)
     bar.close()
     base = _baseline_for(est, ds)
     base_metrics = altitude_metrics(np.full(len(records), base.altitude_m), true_m)

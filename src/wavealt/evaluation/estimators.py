@@ -89,11 +89,18 @@ class GradedEstimate:
         The fit's quality in [0, 1].
     trusted : bool
         Whether the estimator vouches for it (``DispersionResult.trusted``).
+    std_m : float
+        Its one-sigma uncertainty, metres (NaN when the estimator gave up).
+    reason : str or None
+        Why it is not trusted (None when it is): the altimeter's reason, or the error with
+        which it refused the frames.
     """
 
     altitude_m: float
     quality: float
     trusted: bool
+    std_m: float = math.nan
+    reason: str | None = None
 
 
 class DispersionEstimator:
@@ -144,8 +151,8 @@ class DispersionEstimator:
             self.altimeter = DispersionAltimeter(dispersion=self.dispersion)
 
     def estimate_graded(self, dataset: Any, condition: str, record: Any) -> GradedEstimate:
-        """Altitude of one sequence (NaN if it gives up), the fit's quality and whether the
-        altimeter trusts it."""
+        """Altitude of one sequence (NaN if it gives up), the fit's quality, whether the
+        altimeter trusts it, its uncertainty and why it is not trusted."""
         self.bind(dataset)
         frames = dataset.read_frames(condition, record.sequence_id)
         try:
@@ -154,9 +161,10 @@ class DispersionEstimator:
                                           focal_px=record.scenario.focal_px,
                                           velocity_mps=velocity,
                                           velocity_sigma_mps=self.velocity_sigma_mps)
-        except ValueError:
-            return GradedEstimate(math.nan, 0.0, False)
-        return GradedEstimate(float(res.altitude_m), float(res.quality), bool(res.trusted))
+        except ValueError as exc:
+            return GradedEstimate(math.nan, 0.0, False, reason=str(exc))
+        return GradedEstimate(float(res.altitude_m), float(res.quality), bool(res.trusted),
+                              float(res.altitude_std_m), res.reason)
 
     def estimate(self, dataset: Any, condition: str, record: Any) -> float:
         return self.estimate_graded(dataset, condition, record).altitude_m

@@ -42,6 +42,28 @@ def altitude_metrics(predicted_m: Sequence[float], true_m: Sequence[float]) -> d
             "rel_mae_pct": float(100.0 * np.mean(np.abs(err) / np.abs(t[ok])))}
 
 
+def trust_summary(predicted_m: Sequence[float], std_m: Sequence[float],
+                  trusted: Sequence[bool], reasons: Sequence[str | None],
+                  true_m: Sequence[float]) -> dict[str, Any]:
+    """What an estimator that grades itself says of its own errors: the share of the
+    sequences with an estimate whose 3-sigma interval ``predicted +- 3 std`` holds the
+    truth (``coverage_3sigma``; NaN with none), and the kinds of reason it gave for the
+    ones it did not trust, most frequent first (``flag_reasons``; the figures in a reason
+    replaced by ``N``, :func:`wavealt.altimetry.dispersion.reason_class`)."""
+    from wavealt.altimetry.dispersion.result import reason_class
+
+    p, s, t = (np.asarray(a, dtype=np.float64).ravel() for a in (predicted_m, std_m, true_m))
+    ok = np.isfinite(p) & np.isfinite(s)
+    covered = np.abs(p[ok] - t[ok]) <= 3.0 * s[ok]
+    kinds: dict[str, int] = {}
+    for flag, why in zip(trusted, reasons, strict=True):
+        if not flag:
+            kind = reason_class(why) or "no reason given"
+            kinds[kind] = kinds.get(kind, 0) + 1
+    return {"coverage_3sigma": float(covered.mean()) if covered.size else math.nan,
+            "flag_reasons": dict(sorted(kinds.items(), key=lambda kv: (-kv[1], kv[0])))}
+
+
 def paired_mae_difference(err_a: Sequence[float], err_b: Sequence[float], *,
                           n_boot: int = 10000, level: float = 0.95,
                           seed: int = 0) -> dict[str, float]:
@@ -87,4 +109,5 @@ class EvaluationResult:
 
 
 
-__all__ = ["METRIC_KEYS", "EvaluationResult", "altitude_metrics", "fmt", "paired_mae_difference"]
+__all__ = ["METRIC_KEYS", "EvaluationResult", "altitude_metrics", "fmt", "paired_mae_difference",
+           "trust_summary"]

@@ -40,15 +40,19 @@ def predictions_csv(preds: dict[str, dict[str, np.ndarray]]) -> str:
     w = csv.writer(buf, lineterminator="\n")
     graded = any("quality" in d for d in preds.values())
     w.writerow(["condition", "sequence_id", "altitude_m", "predicted_m", "abs_err_m"]
-               + (["quality", "trusted"] if graded else []))
+               + (["quality", "trusted", "std_m", "reason"] if graded else []))
     for c, d in preds.items():
         n = len(d["pred_m"])
         qs = d.get("quality", np.full(n, np.nan))
         ts = d.get("trusted", [None] * n)
-        for sid, t, p, q, ok in zip(d["sequence_id"], d["true_m"], d["pred_m"], qs, ts):
+        ss = d.get("std_m", np.full(n, np.nan))
+        rs = d.get("reason", [""] * n)
+        for sid, t, p, q, ok, sd, why in zip(d["sequence_id"], d["true_m"], d["pred_m"], qs, ts,
+                                             ss, rs):
             row = [c, sid, f"{t:.4f}", f"{p:.4f}", f"{abs(p - t):.4f}"]
             if graded:
-                row += [f"{q:.3f}" if math.isfinite(q) else "", "" if ok is None else int(ok)]
+                row += [f"{q:.3f}" if math.isfinite(q) else "", "" if ok is None else int(ok),
+                        f"{sd:.4f}" if math.isfinite(sd) else "", why or ""]
             w.writerow(row)
     return buf.getvalue()
 
@@ -79,14 +83,22 @@ def table_markdown(result: EvaluationResult) -> str:
                      f"{_f(b.get('rel_mae_pct', math.nan), pct=True)} |")
     graded = {c: v for c, v in m.items() if "trusted" in v}
     if graded:
-        lines += ["", "The sequences it trusts (it flags the others itself: not trusted):", "",
-                  "| Condition | flagged | MAE (m) | Bias (m) | Rel. MAE (%) |",
-                  "|---|---:|---:|---:|---:|"]
+        lines += ["", "The sequences it trusts (it flags the others itself: not trusted), and "
+                  "how often its 3-sigma interval holds the truth (all sequences):", "",
+                  "| Condition | flagged | MAE (m) | Bias (m) | Rel. MAE (%) | 3σ covers (%) |",
+                  "|---|---:|---:|---:|---:|---:|"]
         for c, v in graded.items():
             t = v["trusted"]
+            cover = 100.0 * v.get("coverage_3sigma", math.nan)
             lines.append(f"| {CONDITION_LABELS.get(c, c)} | {v['flagged']} of "
                          f"{v['flagged'] + t['n']} | {_f(t['mae_m'])} | {_f(t['bias_m'], True)} | "
-                         f"{_f(t.get('rel_mae_pct', math.nan), pct=True)} |")
+                         f"{_f(t.get('rel_mae_pct', math.nan), pct=True)} | {_f(cover, pct=True)} |")
+        why = [(c, v["flag_reasons"]) for c, v in graded.items() if v.get("flag_reasons")]
+        if why:
+            lines += ["", "Why it flagged them (figures in a reason shown as N):", ""]
+            for c, kinds in why:
+                lines += [f"- {CONDITION_LABELS.get(c, c)}: " + "; ".join(
+                    f"{k} ({n})" for k, n in kinds.items())]
     failed = {c: int(np.sum(~np.isfinite(d["pred_m"]))) for c, d in result.predictions.items()}
     if any(failed.values()):
         lines += ["", "Sequences without an estimate (left out of n): "

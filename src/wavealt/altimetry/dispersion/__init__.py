@@ -101,7 +101,7 @@ from wavealt.altimetry.dispersion.constants import (  # noqa: F401
     TILES,
     TRUSTED_QUALITY,
 )
-from wavealt.altimetry.dispersion.result import DispersionResult
+from wavealt.altimetry.dispersion.result import DispersionResult, reason_class
 from wavealt.altimetry.dispersion.search import (  # noqa: F401
     _most_prominent,
     _parabolic_peak,
@@ -124,4 +124,4 @@ from wavealt.altimetry.dispersion.spectra import (  # noqa: F401
 )
 
 __all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
-           "estimate_altitude"]
+           "estimate_altitude", "reason_class"]

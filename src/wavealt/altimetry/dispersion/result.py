@@ -2,8 +2,20 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import asdict, dataclass, field
 from typing import Any
+
+#: A measured figure inside a reason: a decimal, or a whole number of per cent (signed).
+_FIGURE = re.compile(r"[+-]?\d+\.\d+|[+-]?\d+(?= ?%)")
+
+
+def reason_class(reason: str | None) -> str | None:
+    """The kind of a reason for distrust, its measured figures replaced by ``N`` (counts and
+    names kept): ``"3-sigma uncertainty 12 % of the altitude"`` and ``"... 31 % ..."`` are
+    one kind, ``"3-sigma uncertainty N % of the altitude"``; None for None."""
+    return None if reason is None else _FIGURE.sub("N", reason)
+
 
 
 @dataclass

@@ -2,7 +2,8 @@
 
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
-        [--max-current 1.0] [--max-tilt-deg 0] [--save-clips DIR] [--self-check]
+        [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie] [--save-clips DIR]
+        [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -17,7 +18,9 @@ The generator is written from the physics alone; it shares no code with ``waveal
   is ``drift - current``.
 * Radiance: Schlick's (1994) Fresnel factor (n = 1.34) of each facet for the pixel's ray of a
   pinhole camera at nadir; sky ``L(theta) = 1 + c sin^2 theta`` with a slight azimuthal
-  gradient; upwelling ``(1 - R) L_water``.  In a third of the clips a sun at 15-50 deg
+  gradient, or with ``--sky cie`` the CIE standard clear sky (ISO 15469 type 12: brighter
+  toward the horizon and steeply toward the clip's sun, whose reflection is far from linear
+  in the slope); upwelling ``(1 - R) L_water``.  In a third of the clips a sun at 15-50 deg
   zenith adds glitter: a Gaussian in the facet slope about the pixel's specular slope, its
   variance a fraction of Cox & Munk's (1954) ``0.003 + 0.00512 U10``; in the others the sun
   lies outside every facet's specular cone, and the term is left out.
@@ -74,6 +77,12 @@ SIZE, GRID, FPS, FRAMES = 256, 640, 30.0, 30
 ROWS = {"blind30": ("blind", 30), "blind15": ("blind", 15),
         "exact10": ("exact", 10), "prior10": ("prior", 10)}
 PRIOR_SIGMA_MPS = 1.0  # the prior row's default sigma (--prior-sigma)
+#: sky radiance models (--sky): a level plus a horizon brightening and a slight gradient, or
+#: the CIE standard general sky type 12, clear and low turbidity (ISO 15469:2004 / CIE S 011,
+#: Darula & Kittler 2002), whose circumsolar brightening makes the reflected sky strongly
+#: non-linear in the facet slope
+SKIES = ("gradient", "cie")
+CIE_CLEAR = (-1.0, -0.32, 10.0, -3.0, 0.45)  # a, b, c, d, e of type 12
 
 Vec = tuple[float, float]
 
@@ -113,6 +122,7 @@ class Scene:
     jpeg_quality: int | None
     tilt_deg: float = 0.0  # the optical axis from the vertical
     tilt_toward: float = 0.0  # the image direction (from +x toward +y) it swings toward
+    sky: str = "gradient"  # SKIES: the sky radiance model
 
     @property
     def focal_px(self) -> float:
@@ -129,10 +139,12 @@ class Scene:
         return (self.drift[0] - self.current[0], self.drift[1] - self.current[1])
 
 
-def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0) -> Scene:
+def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
+               sky: str = "gradient") -> Scene:
     """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
     speed is its draw scaled to ``max_current``; the camera's tilt, even over the disc of
-    radius ``max_tilt_deg``, from a stream of its own, so that the rest is the same)."""
+    radius ``max_tilt_deg``, from a stream of its own, so that the rest is the same; ``sky``
+    draws nothing)."""
     r = np.random.default_rng(seed)
     t = np.random.default_rng((seed, 3))
     tilt, toward = max_tilt_deg * math.sqrt(t.random()), t.uniform(0, 2 * math.pi)
@@ -156,7 +168,7 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0) -
     jpeg = int(r.integers(70, 93)) if r.random() < 0.5 else None
     return Scene(seed, h, hfov, u10, gamma, spread, wind, share, kp_ratio, counter, drift,
                  current, sky_c, sky_grad, water, glinty, sun_z, sun_az, width, gain,
-                 exposure, full_well, read_e, jpeg, tilt, toward)
+                 exposure, full_well, read_e, jpeg, tilt, toward, sky)
 
 
 def pixel_slopes(sc: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -270,6 +282,35 @@ def schlick(cos_i: np.ndarray) -> np.ndarray:
     return R0 + (1 - R0) * (1 - cos_i) ** 5
 
 
+def sun_direction(sc: Scene) -> tuple[float, float, float]:
+    """Unit vector toward the sun, image axes (x columns, y rows, z up)."""
+    z, az = math.radians(sc.sun_zenith_deg), sc.sun_azimuth
+    return math.sin(z) * math.cos(az), math.sin(z) * math.sin(az), math.cos(z)
+
+
+def sky_radiance(sc: Scene, rx: np.ndarray, ry: np.ndarray, rz: np.ndarray) -> np.ndarray:
+    """Sky radiance along unit rays ``(rx, ry, rz)``, in units of the zenith's: ``gradient``,
+    ``1 + c sin^2 theta`` times a slight linear gradient; ``cie``, the CIE standard general
+    sky type 12, ``f(chi) phi(Z) / (f(Z_s) phi(0))`` with ``phi(Z) = 1 + a exp(b / cos Z)``,
+    ``f(chi) = 1 + c (exp(d chi) - exp(d pi / 2)) + e cos^2 chi`` (``Z`` the ray's zenith
+    angle, ``chi`` its angle from the sun, ``Z_s`` the sun's zenith angle); a ray below the
+    horizon takes the horizon's gradation."""
+    if sc.sky == "gradient":
+        return (1 + sc.sky_c * (1 - np.clip(rz, 0, 1) ** 2)) * (
+            1 + sc.sky_grad[0] * rx + sc.sky_grad[1] * ry)
+    a, b, c, d, e = CIE_CLEAR
+    sun = sun_direction(sc)
+
+    def indicatrix(cos_chi: np.ndarray | float) -> np.ndarray | float:
+        chi = np.arccos(np.clip(cos_chi, -1.0, 1.0))
+        return 1 + c * (np.exp(d * chi) - math.exp(d * math.pi / 2)) + e * np.cos(chi) ** 2
+
+    cos_z = np.maximum(rz, 1e-3)
+    gradation = 1 + a * np.exp(b / cos_z)
+    cos_chi = (rx * sun[0] + ry * sun[1] + rz * sun[2]) / np.sqrt(rx**2 + ry**2 + rz**2)
+    return indicatrix(cos_chi) * gradation / (indicatrix(sun[2]) * (1 + a * math.exp(b)))
+
+
 def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
              view: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Linear radiance of each pixel (units of the zenith sky) from the facet slopes;
@@ -284,14 +325,12 @@ def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
     nx, ny, nz = -sx * inv, -sy * inv, inv  # facet normal
     cos_i = np.clip(nx * vx + ny * vy + nz * vz, 0.0, 1.0)
     rx, ry, rz = 2 * cos_i * nx - vx, 2 * cos_i * ny - vy, 2 * cos_i * nz - vz
-    sky = (1 + sc.sky_c * (1 - np.clip(rz, 0, 1) ** 2)) * (
-        1 + sc.sky_grad[0] * rx + sc.sky_grad[1] * ry)
+    sky = sky_radiance(sc, rx, ry, rz)
     fres = schlick(cos_i)
     lum = fres * sky + (1 - fres) * sc.water
     if sc.glinty:
-        z, az = math.radians(sc.sun_zenith_deg), sc.sun_azimuth
-        hx, hy, hz = (math.sin(z) * math.cos(az) + vx, math.sin(z) * math.sin(az) + vy,
-                      math.cos(z) + vz)  # half vector, unnormalised: slopes are its ratios
+        sun = sun_direction(sc)
+        hx, hy, hz = sun[0] + vx, sun[1] + vy, sun[2] + vz  # half vector, unnormalised
         hn = np.sqrt(hx**2 + hy**2 + hz**2)
         var = sc.glint_width * (0.003 + 0.00512 * sc.u10)  # Cox-Munk mean-square slope part
         d2 = (sx + hx / hz) ** 2 + (sy + hy / hz) ** 2
@@ -338,9 +377,9 @@ def _altimeter() -> Any:
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
-                  max_tilt_deg: float = 0.0) -> list[dict]:
+                  max_tilt_deg: float = 0.0, sky: str = "gradient") -> list[dict]:
     """One record per window of every row of clip ``seed``."""
-    sc = draw_scene(seed, max_current, max_tilt_deg)
+    sc = draw_scene(seed, max_current, max_tilt_deg, sky)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
     if save_dir:
@@ -501,6 +540,28 @@ def self_check() -> bool:
     report("tilted camera rays", same == 0.0 and abs(reach - 1) < 1e-3
            and abs(axis[0] - mid) < 1e-9,
            f"level rays vs crop {same:.1e}; axis reaches {reach:.5f} x H tan(tilt)")
+    # (6) the CIE clear sky: 1 at the zenith; in the sun's vertical 3 deg from the sun
+    # brighter than 90 deg away; with the sun overhead, a ray 80 deg from the zenith at
+    # f(80 deg) phi(80 deg) / (f(0) phi(0)), the gradation phi(80 deg) / phi(0) = 3.07 (ISO
+    # 15469 type 12: phi(Z) = 1 - exp(-0.32 / cos Z))
+    cie = replace(base, sky="cie", sun_zenith_deg=40.0, sun_azimuth=0.0)
+
+    def ray(zen_deg: float, az: float) -> tuple[np.ndarray, ...]:
+        z = math.radians(zen_deg)
+        return tuple(np.array([v]) for v in (math.sin(z) * math.cos(az),
+                                             math.sin(z) * math.sin(az), math.cos(z)))
+
+    zenith = float(sky_radiance(cie, *ray(0.0, 0.0))[0])
+    near, far = (float(sky_radiance(cie, *ray(zen, 0.0))[0]) for zen in (43.0, -50.0))
+    z80 = math.radians(80.0)
+    phi = (1 - math.exp(-0.32 / math.cos(z80))) / (1 - math.exp(-0.32))
+    f80, f0 = (1 + 10 * (math.exp(-3 * chi) - math.exp(-3 * math.pi / 2))
+               + 0.45 * math.cos(chi) ** 2 for chi in (z80, 0.0))
+    low = float(sky_radiance(replace(cie, sun_zenith_deg=0.0), *ray(80.0, 1.0))[0])
+    report("CIE clear sky", abs(zenith - 1) < 1e-12 and near > far
+           and abs(low - phi * f80 / f0) < 1e-12,
+           f"zenith {zenith:.3f}, 3 deg from the sun {near:.2f}, 90 deg from it {far:.2f}, "
+           f"gradation at 80 deg {phi:.2f} x zenith")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")
@@ -521,6 +582,9 @@ def main() -> int:
     ap.add_argument("--max-tilt-deg", type=float, default=0.0,
                     help="tilt the camera by up to this many degrees from nadir (even over "
                          "the disc), toward a random direction; the altimeter is not told")
+    ap.add_argument("--sky", choices=SKIES, default="gradient",
+                    help="the sky's radiance: a level, a horizon brightening and a slight "
+                         "gradient, or the CIE clear sky (type 12) around the clip's sun")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -535,7 +599,7 @@ def main() -> int:
     if not 0.0 <= a.max_tilt_deg <= 30.0:
         ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
-                  max_current=a.max_current, max_tilt_deg=a.max_tilt_deg)
+                  max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky)
     t0, records = time.perf_counter(), list[dict]()
     with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
@@ -546,7 +610,7 @@ def main() -> int:
     summary = {"benchmark": "bench_foreign_sea", "clips": a.clips, "seed": a.seed,
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
-               "max_tilt_deg": a.max_tilt_deg,
+               "max_tilt_deg": a.max_tilt_deg, "sky": a.sky,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

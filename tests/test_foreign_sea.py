@@ -19,12 +19,13 @@ def _run(*args: str) -> subprocess.CompletedProcess:
 
 def test_the_generators_physics_checks_pass() -> None:
     """One wave's phase step, no advection when the current equals the drift, the slope
-    variance of the spectrum, the altimeter's velocity convention, and the tilted camera's
-    rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away)."""
+    variance of the spectrum, the altimeter's velocity convention, the tilted camera's
+    rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
+    and the CIE clear sky's luminance against the standard's formula."""
     res = _run("--self-check")
     assert res.returncode == 0, res.stdout + res.stderr[-2000:]
     lines = res.stdout.splitlines()
-    assert sum(line.startswith("PASS") for line in lines) == 5
+    assert sum(line.startswith("PASS") for line in lines) == 6
     assert not any(line.startswith("FAIL") for line in lines)
 
 
@@ -58,3 +59,23 @@ def test_a_tilted_run_records_each_clips_tilt_and_refuses_a_bad_one(tmp_path) ->
     assert sorted(tilts) == [5, 6] and all(0.0 < t <= 15.0 for t in tilts.values())
     bad = _run("--clips", "1", "--max-tilt-deg", "45")
     assert bad.returncode == 2 and "--max-tilt-deg must be within 0-30; got 45" in bad.stderr
+
+
+def test_a_cie_sky_run_changes_the_radiance_and_nothing_else(tmp_path) -> None:
+    """``--sky cie`` draws the same scenes (the sky draws nothing) and renders other frames;
+    an unknown sky is refused."""
+    runs = {}
+    for sky in ("gradient", "cie"):
+        out = tmp_path / f"{sky}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--sky", sky,
+                   "--save-clips", str(tmp_path / sky), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert json.loads(out.read_text())["sky"] == sky
+        runs[sky] = json.loads((tmp_path / sky / "clip5.json").read_text())
+    keep = {k: v for k, v in runs["gradient"].items() if k not in ("sky", "texture_dn",
+                                                                     "noise_dn")}
+    assert keep == {k: runs["cie"][k] for k in keep}
+    assert runs["cie"]["sky"] == "cie" and runs["cie"]["texture_dn"] != runs["gradient"][
+        "texture_dn"]
+    bad = _run("--clips", "1", "--sky", "overcast")
+    assert bad.returncode == 2 and "invalid choice: 'overcast'" in bad.stderr

@@ -55,7 +55,6 @@ import platform  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
-from collections import Counter  # noqa: E402
 from collections.abc import Iterable, Sequence  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor, as_completed  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
@@ -359,7 +358,7 @@ def column(recs: list[dict[str, Any]], key: str, dtype: Any = float) -> np.ndarr
 def condition_metrics(recs: list[dict[str, Any]]) -> dict[str, Any]:
     """Metrics of one row, seed and condition.  Estimates the altimeter refused (ValueError)
     count as untrusted and uncovered, and drop out of the error averages."""
-    from wavealt.altimetry.dispersion.result import reason_class
+    from wavealt.altimetry.dispersion.result import reason_counts
 
     skipped = [r for r in recs if r["status"] == "generation-error"]
     recs = [r for r in recs if r["status"] != "generation-error"]
@@ -395,8 +394,7 @@ def condition_metrics(recs: list[dict[str, Any]]) -> dict[str, Any]:
         "latency_ms_median": round(float(np.median(lat)), 2),
         "latency_ms_p90": round(float(np.percentile(lat, 90)), 2),
         # the kinds of reason (figures as N), most frequent first; each window's own in the CSV
-        "untrusted_reasons": dict(Counter(reason_class(r["reason"]) for r in recs
-                                          if not r["trusted"]).most_common()),
+        "untrusted_reasons": reason_counts(r["reason"] for r in recs if not r["trusted"]),
         "by_altitude_m": by_band(h, rel, trusted, ALT_BANDS_M),
         "by_wind_mps": by_band(column(recs, "wind_speed_mps"), rel, trusted, WIND_BANDS_MPS),
         "by_drift_mps": by_band(column(recs, "drift_mps"), rel, trusted, DRIFT_BANDS_MPS),

@@ -50,7 +50,6 @@ import math
 import os
 import sys
 import time
-from collections import Counter
 from contextlib import nullcontext
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache, partial
@@ -413,7 +412,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
 def _stats(recs: list[dict]) -> dict[str, Any]:
     """Metrics of a set of window records (all windows, estimates that raised excluded), and
     the kinds of reason the untrusted ones gave (figures as N, most frequent first)."""
-    from wavealt.altimetry.dispersion.result import reason_class
+    from wavealt.altimetry.dispersion.result import reason_counts
 
     if not recs:
         return {"windows": 0}
@@ -442,8 +441,8 @@ def _stats(recs: list[dict]) -> dict[str, Any]:
             "median_texture_snr": float(np.median([r["texture_dn"] / r["noise_dn"]
                                                    for r in recs])),
             "median_latency_s": float(np.median([r["latency_s"] for r in recs])),
-            "untrusted_reasons": dict(Counter(reason_class(r["reason"]) for r in recs
-                                              if not r["trusted"]).most_common())}
+            "untrusted_reasons": reason_counts(r["reason"] for r in recs
+                                               if not r["trusted"])}
 
 
 def summarize(records: list[dict], rows: tuple[str, ...]) -> dict[str, Any]:

@@ -276,7 +276,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         if view is not None:
             frames, f = view(frames), view.focal_px
         res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
-                           velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
+                                  velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
         if not as_json:

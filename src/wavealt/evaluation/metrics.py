@@ -49,19 +49,15 @@ def trust_summary(predicted_m: Sequence[float], std_m: Sequence[float],
     sequences with an estimate whose 3-sigma interval ``predicted +- 3 std`` holds the
     truth (``coverage_3sigma``; NaN with none), and the kinds of reason it gave for the
     ones it did not trust, most frequent first (``flag_reasons``; the figures in a reason
-    replaced by ``N``, :func:`wavealt.altimetry.dispersion.reason_class`)."""
-    from wavealt.altimetry.dispersion.result import reason_class
+    replaced by ``N``, :func:`wavealt.altimetry.dispersion.result.reason_counts`)."""
+    from wavealt.altimetry.dispersion.result import reason_counts
 
     p, s, t = (np.asarray(a, dtype=np.float64).ravel() for a in (predicted_m, std_m, true_m))
     ok = np.isfinite(p) & np.isfinite(s)
     covered = np.abs(p[ok] - t[ok]) <= 3.0 * s[ok]
-    kinds: dict[str, int] = {}
-    for flag, why in zip(trusted, reasons, strict=True):
-        if not flag:
-            kind = reason_class(why) or "no reason given"
-            kinds[kind] = kinds.get(kind, 0) + 1
+    flagged = [why for flag, why in zip(trusted, reasons, strict=True) if not flag]
     return {"coverage_3sigma": float(covered.mean()) if covered.size else math.nan,
-            "flag_reasons": dict(sorted(kinds.items(), key=lambda kv: (-kv[1], kv[0])))}
+            "flag_reasons": reason_counts(flagged)}
 
 
 def paired_mae_difference(err_a: Sequence[float], err_b: Sequence[float], *,

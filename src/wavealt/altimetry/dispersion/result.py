@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+from collections import Counter
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -16,6 +18,12 @@ def reason_class(reason: str | None) -> str | None:
     one kind, ``"3-sigma uncertainty N % of the altitude"``; None for None."""
     return None if reason is None else _FIGURE.sub("N", reason)
 
+
+def reason_counts(reasons: Iterable[str | None]) -> dict[str, int]:
+    """How many of ``reasons`` are of each kind (:func:`reason_class`), the most frequent
+    first (ties by kind); a missing reason counts as ``"no reason given"``."""
+    counts = Counter(reason_class(r) or "no reason given" for r in reasons)
+    return dict(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
 @dataclass

@@ -56,12 +56,17 @@ def _fast_len(n: int) -> int:
     return best
 
 
+def _corner_shape(h0: int, w0: int, frac: float = 0.5) -> tuple[int, int]:
+    """The ``(h, w)`` of :func:`_corners`'s tiles of ``(h0, w0)`` frames."""
+    return _fast_len(int(frac * h0)), _fast_len(int(frac * w0))
+
+
 def _corners(arr: np.ndarray, frac: float = 0.5) -> list[np.ndarray]:
     """The four corner tiles of ``(T, H, W)`` frames (views), each side the largest fast FFT
     size within ``frac`` of the frame's (:func:`_fast_len`; ``frac = 0.5`` on a
     power-of-two frame: the quadrants)."""
     _, h0, w0 = arr.shape
-    h, w = _fast_len(int(frac * h0)), _fast_len(int(frac * w0))
+    h, w = _corner_shape(h0, w0, frac)
     return [arr[:, :h, :w], arr[:, :h, w0 - w:], arr[:, h0 - h:, :w], arr[:, h0 - h:, w0 - w:]]
 
 

@@ -37,7 +37,7 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, significance
-from wavealt.altimetry.dispersion.spectra import _corners
+from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners
 
 
 class _Trust:
@@ -326,11 +326,11 @@ class _Trust:
         one tilted toward the other side give the same tiles, at altitudes apart by the
         scale that tilt makes there (a camera 13 degrees from nadir read 36 % high, at 1.4 %,
         from the one corner whose sea glittered)."""
-        # the corner tiles' places (:meth:`_tile_fits` cuts them so; views of an empty frame)
-        tile = _corners(np.empty((1, *shape), np.float32), self.corner_tiles or 0.4)[0]
+        # the corner tiles' places (:meth:`_tile_fits` cuts them so)
+        tile = _corner_shape(*shape, self.corner_tiles or 0.4)
         var = unmeasured_tilt_var_log(fits, focal_px,
                                       math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)),
-                                      tile_centres(shape, tile.shape[1:]))
+                                      tile_centres(shape, tile))
         if var <= 0.0:
             return None
         passed = self._distrust(res) is None

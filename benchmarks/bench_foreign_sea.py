@@ -2,8 +2,8 @@
 
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
-        [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie] [--save-clips DIR]
-        [--self-check]
+        [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie]
+        [--camera rolling,blur,autoexposure] [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -30,6 +30,14 @@ The generator is written from the physics alone; it shares no code with ``waveal
   factor, sky and glitter.
 * Sensor: exposure locked on frame 0 (median 0.3-0.5 of full scale after gamma), Poisson shot
   noise, read noise, gamma 1/2.2, 8 bits; JPEG (quality 70-92) in half of the clips.
+* ``--camera`` adds what a drone's CMOS camera does, each drawn per clip from a stream of its
+  own (the scene is the same): ``rolling``, a rolling shutter whose rows are read 10-30 ms
+  apart from first to last (row y exposed ``y / 256`` of that later); ``blur``, an exposure
+  of 2-16 ms over which each row's radiance is averaged (the waves and the camera move
+  during it); ``autoexposure``, the gain not locked but following each frame's median, a
+  fraction 0.2-0.6 of the log error a frame, with a jitter of 0.5-3 % a frame.  The
+  radiance is rendered on a grid of sub-frame times at most ``SUB_STEP_S`` apart and
+  interpolated linearly in time for each row.
 
 Axes: x = image columns (right), y = rows (down), for every vector here.  The altimeter's
 ``velocity_mps`` is the camera's velocity over the water (``estimate``'s docstring; a camera
@@ -81,6 +89,12 @@ PRIOR_SIGMA_MPS = 1.0  # the prior row's default sigma (--prior-sigma)
 #: Darula & Kittler 2002), whose circumsolar brightening makes the reflected sky strongly
 #: non-linear in the facet slope
 SKIES = ("gradient", "cie")
+#: camera effects (--camera): a rolling shutter, motion blur over the exposure, automatic
+#: exposure
+CAMERA_EFFECTS = ("rolling", "blur", "autoexposure")
+#: the sub-frame render times' largest spacing with a rolling shutter or blur (linear in
+#: time between them: 0.6 % of the texture at most at 4 m with a 0.7 m/s drift; 2.5 % at 4 ms)
+SUB_STEP_S = 0.002
 CIE_CLEAR = (-1.0, -0.32, 10.0, -3.0, 0.45)  # a, b, c, d, e of type 12
 
 Vec = tuple[float, float]
@@ -122,6 +136,10 @@ class Scene:
     tilt_deg: float = 0.0  # the optical axis from the vertical
     tilt_toward: float = 0.0  # the image direction (from +x toward +y) it swings toward
     sky: str = "gradient"  # SKIES: the sky radiance model
+    readout_s: float = 0.0  # rolling shutter: the last row is exposed this much after the first
+    shutter_s: float = 0.0  # exposure time over which the radiance is averaged
+    ae_rate: float = 0.0  # automatic exposure: share of the log gain error corrected a frame
+    ae_jitter: float = 0.0  # ... and the sd of its log gain's jitter a frame
 
     @property
     def focal_px(self) -> float:
@@ -139,14 +157,21 @@ class Scene:
 
 
 def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
-               sky: str = "gradient") -> Scene:
+               sky: str = "gradient", camera: tuple[str, ...] = ()) -> Scene:
     """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
     speed is its draw scaled to ``max_current``; the camera's tilt, even over the disc of
-    radius ``max_tilt_deg``, from a stream of its own, so that the rest is the same; ``sky``
-    draws nothing)."""
+    radius ``max_tilt_deg``, and its ``camera`` effects (:data:`CAMERA_EFFECTS`) from
+    streams of their own, so that the rest is the same; ``sky`` draws nothing)."""
     r = np.random.default_rng(seed)
     t = np.random.default_rng((seed, 3))
     tilt, toward = max_tilt_deg * math.sqrt(t.random()), t.uniform(0, 2 * math.pi)
+    c = np.random.default_rng((seed, 4))
+    readout, shutter = c.uniform(0.010, 0.030), c.uniform(0.002, 0.016)
+    ae_rate, ae_jitter = c.uniform(0.2, 0.6), c.uniform(0.005, 0.03)
+    effects = {"readout_s": readout if "rolling" in camera else 0.0,
+               "shutter_s": shutter if "blur" in camera else 0.0,
+               "ae_rate": ae_rate if "autoexposure" in camera else 0.0,
+               "ae_jitter": ae_jitter if "autoexposure" in camera else 0.0}
 
     def vec(top: float) -> Vec:
         speed, angle = r.uniform(0, top), r.uniform(0, 2 * math.pi)
@@ -167,7 +192,7 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
     jpeg = int(r.integers(70, 93)) if r.random() < 0.5 else None
     return Scene(seed, h, hfov, u10, gamma, spread, wind, share, kp_ratio, counter, drift,
                  current, sky_c, sky_grad, water, glinty, sun_z, sun_az, width, gain,
-                 exposure, full_well, read_e, jpeg, tilt, toward, sky)
+                 exposure, full_well, read_e, jpeg, tilt, toward, sky, **effects)
 
 
 def pixel_slopes(sc: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -252,6 +277,20 @@ def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int,
     ``sx + i sy``.  The drift and the current enter only as phase:
     ``exp(i (k.(drift - current) -+ w) t)``.
     """
+    p, q, adv, w = _slope_spectra(sc, amp)
+    step_p, step_q = np.exp(1j * (adv - w) / FPS), np.exp(1j * (adv + w) / FPS)
+    out = np.empty((n_frames, SIZE, SIZE), np.complex128)
+    for t in range(n_frames):
+        out[t] = _synthesise(p + q, points)
+        p *= step_p
+        q *= step_q
+    return out.real, out.imag
+
+
+def _slope_spectra(sc: Scene, amp: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The slope field's two spectra at t = 0, ``i k A(k) / 2`` (waves along k) and
+    ``i k conj A(-k) / 2`` (along -k), and the phase rates' parts ``k.(drift - current)``
+    and ``omega(k)``, rad/s (:func:`slope_frames`)."""
     kx, ky = wavenumbers(sc)
     w = omega(np.hypot(kx, ky))
     ux, uy = sc.over_water
@@ -259,21 +298,75 @@ def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int,
     grad = 0.5j * (kx + 1j * ky)
     p = grad * amp
     q = grad * np.conj(np.roll(amp[::-1, ::-1], 1, axis=(0, 1)))
-    step_p, step_q = np.exp(1j * (adv - w) / FPS), np.exp(1j * (adv + w) / FPS)
-    lo = (GRID - SIZE) // 2
-    out = np.empty((n_frames, SIZE, SIZE), np.complex128)
-    for t in range(n_frames):
-        if points is None:
-            rows = sfft.ifft(p + q, axis=0, norm="forward")[lo:lo + SIZE]
-            out[t] = sfft.ifft(rows, axis=1, norm="forward")[:, lo:lo + SIZE]
+    return p, q, adv, w
+
+
+def _synthesise(spec: np.ndarray, points: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+    """``sx + i sy`` of the slope spectrum ``spec``: the centre crop, or at ``points`` (grid
+    column and row of each pixel) of the periodic grid, linearly interpolated."""
+    if points is None:
+        lo = (GRID - SIZE) // 2
+        rows = sfft.ifft(spec, axis=0, norm="forward")[lo:lo + SIZE]
+        return sfft.ifft(rows, axis=1, norm="forward")[:, lo:lo + SIZE]
+    field = sfft.ifft2(spec, norm="forward")
+    at = [points[1], points[0]]
+    out = np.empty((SIZE, SIZE), np.complex128)
+    out.real = ndimage.map_coordinates(field.real, at, order=1, mode="grid-wrap")
+    out.imag = ndimage.map_coordinates(field.imag, at, order=1, mode="grid-wrap")
+    return out
+
+
+def slopes_at(sc: Scene, amp: np.ndarray, times: np.ndarray,
+              points: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Surface slopes as :func:`slope_frames` gives them, at arbitrary ``times`` (s): each
+    component's phase ``exp(i (k.(drift - current) -+ w) t)`` taken whole, or where the
+    times are evenly spaced, taken whole at the first and stepped from there."""
+    p, q, adv, w = _slope_spectra(sc, amp)
+    out = np.empty((len(times), SIZE, SIZE), np.complex128)
+    # evenly spaced times (a frame's sub-frame renders): the phases stepped from the first
+    gaps = np.diff(times)
+    even = gaps.size > 0 and bool(np.allclose(gaps, gaps[0], rtol=0.0, atol=1e-12))
+    if even:
+        p = p * np.exp(1j * (adv - w) * times[0])
+        q = q * np.exp(1j * (adv + w) * times[0])
+        step_p, step_q = np.exp(1j * (adv - w) * gaps[0]), np.exp(1j * (adv + w) * gaps[0])
+    for i, t in enumerate(times):
+        if even:
+            out[i] = _synthesise(p + q, points)
+            p *= step_p
+            q *= step_q
         else:
-            field = sfft.ifft2(p + q, norm="forward")
-            at = [points[1], points[0]]
-            out[t].real = ndimage.map_coordinates(field.real, at, order=1, mode="grid-wrap")
-            out[t].imag = ndimage.map_coordinates(field.imag, at, order=1, mode="grid-wrap")
-        p *= step_p
-        q *= step_q
+            out[i] = _synthesise(p * np.exp(1j * (adv - w) * t) + q * np.exp(1j * (adv + w) * t),
+                                 points)
     return out.real, out.imag
+
+
+def exposed_radiance(sc: Scene, amp: np.ndarray, n_frames: int,
+                     points: tuple[np.ndarray, np.ndarray] | None = None,
+                     view: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                     ) -> np.ndarray:
+    """Radiance of each frame as a rolling shutter reads it (row y exposed from
+    ``y / SIZE * readout_s`` after the frame's start) and averaged over the exposure
+    ``shutter_s`` (instants ``SUB_STEP_S`` apart), from renders at sub-frame times no more than
+    ``SUB_STEP_S`` apart, interpolated linearly in time for each row."""
+    span = sc.readout_s + sc.shutter_s
+    taus = np.linspace(0.0, span, max(2, math.ceil(span / SUB_STEP_S) + 1))
+    starts = np.arange(SIZE) / SIZE * sc.readout_s
+    n_inst = max(1, math.ceil(sc.shutter_s / SUB_STEP_S))
+    instants = (np.arange(n_inst) + 0.5) / n_inst * sc.shutter_s
+    rows = np.arange(SIZE)
+    out = np.empty((n_frames, SIZE, SIZE))
+    for f in range(n_frames):
+        sub = radiance(sc, *slopes_at(sc, amp, f / FPS + taus, points), view)
+        acc = np.zeros((SIZE, SIZE))
+        for d in instants:
+            pos = np.interp(starts + d, taus, np.arange(taus.size))
+            j = np.minimum(pos.astype(int), taus.size - 2)
+            frac = (pos - j)[:, None]
+            acc += (1 - frac) * sub[j, rows] + frac * sub[j + 1, rows]
+        out[f] = acc / instants.size
+    return out
 
 
 def schlick(cos_i: np.ndarray) -> np.ndarray:
@@ -338,11 +431,28 @@ def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
     return lum
 
 
+def exposure_gains(sc: Scene, lum: np.ndarray) -> np.ndarray:
+    """Each frame's gain: locked on frame 0 (its median at ``exposure`` after gamma), or with
+    automatic exposure (``ae_rate > 0``) moved each frame by ``ae_rate`` of the log error
+    against that frame's own target, plus a jitter (a stream of its own)."""
+    target = np.log(sc.exposure**2.2 / np.median(lum.reshape(len(lum), -1), axis=1))
+    if sc.ae_rate == 0.0:
+        return np.full(len(lum), math.exp(target[0]))
+    jitter = np.random.default_rng((sc.seed, 5)).normal(0.0, sc.ae_jitter, len(lum))
+    log_gain = np.empty(len(lum))
+    log_gain[0] = target[0]
+    for t in range(1, len(lum)):
+        log_gain[t] = log_gain[t - 1] + sc.ae_rate * (target[t] - log_gain[t - 1]) + jitter[t]
+    return np.exp(log_gain)
+
+
 def capture(sc: Scene, lum: np.ndarray,
             rng: np.random.Generator) -> tuple[np.ndarray, dict[str, float]]:
-    """8-bit frames (locked exposure, shot and read noise, gamma 1/2.2, optional JPEG), and
-    the standard deviations (8-bit steps) of frame 0 without noise and of its noise."""
-    scale = sc.exposure**2.2 / float(np.median(lum[0]))
+    """8-bit frames (exposure locked or automatic, shot and read noise, gamma 1/2.2, optional
+    JPEG), and the standard deviations (8-bit steps) of frame 0 without noise and of its
+    noise."""
+    gains = exposure_gains(sc, lum)
+    scale = gains[:, None, None] if sc.ae_rate else float(gains[0])
     electrons = rng.poisson(np.minimum(lum * scale, 2.0) * sc.full_well)
     signal = (electrons + rng.normal(0.0, sc.read_e, lum.shape)) / sc.full_well
     frames = np.round(np.clip(signal, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
@@ -351,7 +461,7 @@ def capture(sc: Scene, lum: np.ndarray,
             buf = io.BytesIO()
             Image.fromarray(frame).save(buf, format="JPEG", quality=sc.jpeg_quality)
             frames[t] = np.asarray(Image.open(buf))
-    clean = np.clip(lum[0] * scale, 0, 1) ** (1 / 2.2) * 255
+    clean = np.clip(lum[0] * gains[0], 0, 1) ** (1 / 2.2) * 255
     return frames, {"texture_dn": float(np.std(clean)),
                     "noise_dn": float(np.std(frames[0] - clean))}
 
@@ -359,12 +469,15 @@ def capture(sc: Scene, lum: np.ndarray,
 def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str, float]]:
     """The clip of scene ``sc``, uint8 ``(T, 256, 256)``, and its contrast (``capture``)."""
     rng = np.random.default_rng((sc.seed, 1))
-    if sc.tilt_deg == 0.0:
-        sx, sy = slope_frames(sc, random_amplitudes(sc, rng), n_frames)
-        return capture(sc, radiance(sc, sx, sy), rng)
-    col, row, *view = camera_rays(sc)
-    sx, sy = slope_frames(sc, random_amplitudes(sc, rng), n_frames, (col, row))
-    return capture(sc, radiance(sc, sx, sy, tuple(view)), rng)
+    amp = random_amplitudes(sc, rng)
+    points, view = None, None
+    if sc.tilt_deg != 0.0:
+        col, row, *rays = camera_rays(sc)
+        points, view = (col, row), tuple(rays)
+    if sc.readout_s > 0 or sc.shutter_s > 0:
+        return capture(sc, exposed_radiance(sc, amp, n_frames, points, view), rng)
+    sx, sy = slope_frames(sc, amp, n_frames, points)
+    return capture(sc, radiance(sc, sx, sy, view), rng)
 
 
 @lru_cache(maxsize=1)
@@ -376,9 +489,10 @@ def _altimeter() -> Any:
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
-                  max_tilt_deg: float = 0.0, sky: str = "gradient") -> list[dict]:
+                  max_tilt_deg: float = 0.0, sky: str = "gradient",
+                  camera: tuple[str, ...] = ()) -> list[dict]:
     """One record per window of every row of clip ``seed``."""
-    sc = draw_scene(seed, max_current, max_tilt_deg, sky)
+    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
     if save_dir:
@@ -386,7 +500,8 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
         (Path(save_dir) / f"clip{seed}.json").write_text(json.dumps(truth, indent=1))
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
-                                  "tilt_deg", "tilt_toward")}
+                                  "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
+                                  "ae_rate", "ae_jitter")}
     base["saturated_share"] = float(np.mean(frames == 255))
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
                 "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
@@ -561,9 +676,31 @@ def self_check() -> bool:
            and abs(low - phi * f80 / f0) < 1e-12,
            f"zenith {zenith:.3f}, 3 deg from the sun {near:.2f}, 90 deg from it {far:.2f}, "
            f"gradation at 80 deg {phi:.2f} x zenith")
+    # (7) the camera effects: phases taken whole at the frame times give the stepped field;
+    # a rolling shutter's row y is the radiance at y / SIZE of the readout (a row between
+    # sub-frame renders to the interpolation's error); automatic exposure with a full
+    # correction a frame and no jitter puts every frame's median at the exposure
+    whole = [a[[0, 2, 1]] for a in slopes_at(base, sea, np.array([0.0, 2.0, 1.0]) / FPS)]
+    stepped = slope_frames(base, sea, 3)
+    phase_err = max(float(np.max(np.abs(a - b))) for a, b in zip(whole, stepped))
+    rolling = replace(base, readout_s=0.03)
+    lum = exposed_radiance(rolling, sea, 2)
+    y = 201  # read 23.6 ms after row 0, between two sub-frame renders
+    direct = radiance(rolling, *slopes_at(rolling, sea, np.array([1 / FPS + y / SIZE * 0.03])))
+    row_err = float(np.max(np.abs(lum[1, y] - direct[0, y])) / np.std(direct[0]))
+    auto = replace(base, ae_rate=1.0, ae_jitter=0.0)
+    ramp = radiance(base, *slope_frames(base, sea, 3)) * np.array([1.0, 1.5, 0.7])[:, None, None]
+    medians = np.median((ramp * exposure_gains(auto, ramp)[:, None, None]).reshape(3, -1), axis=1)
+    report("camera effects", phase_err < 1e-9 and row_err < 0.01
+           and float(np.max(np.abs(medians / base.exposure**2.2 - 1))) < 1e-12,
+           f"whole vs stepped phases {phase_err:.1e}; rolling-shutter row vs direct "
+           f"{row_err:.4f} of the texture; auto-exposed medians {medians.round(4).tolist()}")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")
+    t0 = time.perf_counter()
+    render_clip(draw_scene(1, camera=CAMERA_EFFECTS))
+    print(f"INFO with every camera effect: {time.perf_counter() - t0:.2f} s")
     return ok
 
 
@@ -584,6 +721,9 @@ def main() -> int:
     ap.add_argument("--sky", choices=SKIES, default="gradient",
                     help="the sky's radiance: a level, a horizon brightening and a slight "
                          "gradient, or the CIE clear sky (type 12) around the clip's sun")
+    ap.add_argument("--camera", default="",
+                    help=f"comma list of camera effects ({', '.join(CAMERA_EFFECTS)}): a "
+                         "rolling shutter, motion blur, automatic exposure; default none")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -592,13 +732,18 @@ def main() -> int:
     rows = tuple(r.strip() for r in a.rows.split(",") if r.strip())
     if set(rows) - set(ROWS):
         ap.error(f"unknown rows: {', '.join(sorted(set(rows) - set(ROWS)))}")
+    camera = tuple(e.strip() for e in a.camera.split(",") if e.strip())
+    if set(camera) - set(CAMERA_EFFECTS):
+        unknown = ", ".join(sorted(set(camera) - set(CAMERA_EFFECTS)))
+        ap.error(f"unknown camera effects: {unknown} (known: {', '.join(CAMERA_EFFECTS)})")
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
     if not 0.0 <= a.max_tilt_deg <= 30.0:
         ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
-                  max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky)
+                  max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
+                  camera=camera)
     t0, records = time.perf_counter(), list[dict]()
     with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
@@ -609,7 +754,7 @@ def main() -> int:
     summary = {"benchmark": "bench_foreign_sea", "clips": a.clips, "seed": a.seed,
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
-               "max_tilt_deg": a.max_tilt_deg, "sky": a.sky,
+               "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_foreign_sea.py"
 
 
@@ -21,11 +23,13 @@ def test_the_generators_physics_checks_pass() -> None:
     """One wave's phase step, no advection when the current equals the drift, the slope
     variance of the spectrum, the altimeter's velocity convention, the tilted camera's
     rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
-    and the CIE clear sky's luminance against the standard's formula."""
+    the CIE clear sky's luminance against the standard's formula, and the camera effects
+    (phases taken whole or stepped, a rolling shutter's row against a direct render,
+    automatic exposure's gains)."""
     res = _run("--self-check")
     assert res.returncode == 0, res.stdout + res.stderr[-2000:]
     lines = res.stdout.splitlines()
-    assert sum(line.startswith("PASS") for line in lines) == 6
+    assert sum(line.startswith("PASS") for line in lines) == 7
     assert not any(line.startswith("FAIL") for line in lines)
 
 
@@ -79,3 +83,34 @@ def test_a_cie_sky_run_changes_the_radiance_and_nothing_else(tmp_path) -> None:
         "texture_dn"]
     bad = _run("--clips", "1", "--sky", "overcast")
     assert bad.returncode == 2 and "invalid choice: 'overcast'" in bad.stderr
+
+
+def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:
+    """``--camera`` draws each effect from a stream of its own: the scene is the one drawn
+    without it, the frames differ, the record holds the effect's figures; an unknown effect
+    is refused by name."""
+    truths = {}
+    for camera in ("", "rolling,blur,autoexposure"):
+        name = camera.split(",")[0] or "none"
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--camera", camera,
+                   "--save-clips", str(tmp_path / name), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        saved = json.loads(out.read_text())
+        assert saved["camera"] == [c for c in camera.split(",") if c]
+        truths[name] = json.loads((tmp_path / name / "clip5.json").read_text())
+        record = saved["records"][0]
+        assert {k: record[k] for k in ("readout_s", "shutter_s", "ae_rate", "ae_jitter")} == {
+            k: truths[name][k] for k in ("readout_s", "shutter_s", "ae_rate", "ae_jitter")}
+    plain, effects = truths["none"], truths["rolling"]
+    assert plain["readout_s"] == plain["shutter_s"] == plain["ae_rate"] == 0.0
+    assert 0.010 <= effects["readout_s"] <= 0.030 and 0.002 <= effects["shutter_s"] <= 0.016
+    assert 0.2 <= effects["ae_rate"] <= 0.6 and effects["ae_jitter"] > 0.0
+    drawn = set(plain) - {"readout_s", "shutter_s", "ae_rate", "ae_jitter", "texture_dn",
+                          "noise_dn"}
+    assert {k: plain[k] for k in drawn} == {k: effects[k] for k in drawn}
+    frames = [np.load(tmp_path / name / "clip5.npy") for name in ("none", "rolling")]
+    assert frames[0].shape == frames[1].shape and not np.array_equal(*frames)
+    bad = _run("--clips", "1", "--camera", "rolling,fisheye")
+    assert bad.returncode == 2
+    assert "unknown camera effects: fisheye (known: rolling, blur, autoexposure)" in bad.stderr

@@ -45,17 +45,18 @@ class _Search:
         arrays = p["_lookup"]
         if modes is None:
             return arrays
-        # the searches ask for the same few subsets many times: gathered once each; the
-        # last one asked for, most often the same array again, is known by identity (it
-        # is held, so its id is not reused) before its bytes are hashed
-        last = p.get("_lookup_last")
-        if last is not None and last[0] is modes:
-            return last[1]
+        # the searches ask for the same few subsets many times: gathered once each; an
+        # array asked for before is known by identity (it is held, so its id is not
+        # reused) before its bytes are hashed
+        held = p.setdefault("_lookup_held", {})
+        seen = held.get(id(modes))
+        if seen is not None:
+            return seen[1]
         subsets = p.setdefault("_lookup_subsets", {})
         key = modes.tobytes()
         if key not in subsets:
             subsets[key] = {k: v[modes] for k, v in arrays.items()}
-        p["_lookup_last"] = (modes, subsets[key])
+        held[id(modes)] = (modes, subsets[key])
         return subsets[key]
 
     def _branch_values(self, p: dict[str, Any], fps: float, focal_px: float,

@@ -275,12 +275,17 @@ class _Spectra:
         x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
         energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
         # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step as one real matrix
-        # product per part (T is short: this beats an n_psi-point FFT per mode)
-        z = np.matmul(basis, x)  # (parts, 2 n_psi, modes): Re z over Im z
-        z *= z
-        z = z.sum(axis=0)
+        # product per part (T is short: this beats an n_psi-point FFT per mode), Re z over
+        # Im z; their squares summed over the parts in order, one part's product at a time
         n_psi = denom.size
-        explained = np.ascontiguousarray((z[:n_psi] + z[n_psi:]).T)
+        acc = np.matmul(basis, x[0])
+        acc *= acc
+        z = np.empty_like(acc) if len(x) > 1 else None
+        for part in x[1:]:
+            np.matmul(basis, part, out=z)
+            np.multiply(z, z, out=z)
+            acc += z
+        explained = np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         if not keep.all():
             idx, explained, energy = idx[keep], explained[keep], energy[keep]

@@ -81,7 +81,7 @@ class _Search:
             om = self._omega_row(p, a, logh, fps, focal_px, to_bins)
         else:
             uniq, inv = np.unique(logh, return_inverse=True)
-            om = self._omega_bins(a["kappa"], uniq, fps, focal_px, to_bins)
+            om = self._omega_modes(p, a, uniq, fps, focal_px, to_bins)
             if uniq.size < logh.size or not np.array_equal(uniq, logh):
                 om = om[inv.ravel()]
         vx = (np.atleast_1d(ux) * to_bins).astype(np.float32)
@@ -114,8 +114,20 @@ class _Search:
         rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
         key = (float(logh[0]), float(fps), float(focal_px))
         if key not in rows:
-            rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
+            rows[key] = self._omega_modes(p, a, logh[:1], fps, focal_px, to_bins)
         return rows[key]
+
+    def _omega_modes(self, p: dict[str, Any], a: dict[str, np.ndarray], logh: np.ndarray,
+                     fps: float, focal_px: float, to_bins: float) -> np.ndarray:
+        """:meth:`_omega_bins` of the modes of lookup arrays ``a`` at each altitude
+        ``exp(logh)``, taken once per distinct wavenumber (a square tile's modes come in
+        fours of one ``|kappa|``; its distinct values, cached per mode subset, which ``p``
+        holds)."""
+        distinct = p.setdefault("_kappa_distinct", {})
+        if id(a) not in distinct:
+            distinct[id(a)] = np.unique(a["kappa"], return_inverse=True)
+        kappa, inv = distinct[id(a)]
+        return self._omega_bins(kappa, logh, fps, focal_px, to_bins)[:, inv]
 
     def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
                     to_bins: float) -> np.ndarray:

@@ -123,11 +123,19 @@ class _Search:
         ``exp(logh)``, taken once per distinct wavenumber (a square tile's modes come in
         fours of one ``|kappa|``; its distinct values, cached per mode subset, which ``p``
         holds)."""
+        kappa, inv = self._distinct_kappa(p, a)
+        return self._omega_bins(kappa, logh, fps, focal_px, to_bins)[:, inv]
+
+    @staticmethod
+    def _distinct_kappa(p: dict[str, Any], a: dict[str, np.ndarray]
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct wavenumbers of the modes of lookup arrays ``a`` (:meth:`_lookup`)
+        and each mode's place among them (``np.unique``), cached in ``p``, which holds
+        ``a``."""
         distinct = p.setdefault("_kappa_distinct", {})
         if id(a) not in distinct:
             distinct[id(a)] = np.unique(a["kappa"], return_inverse=True)
-        kappa, inv = distinct[id(a)]
-        return self._omega_bins(kappa, logh, fps, focal_px, to_bins)[:, inv]
+        return distinct[id(a)]
 
     def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
                     to_bins: float) -> np.ndarray:
@@ -316,26 +324,28 @@ def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     line about 0.4 s of its 1-s start-up budget; the scans are a few hundred points.
     """
     y = np.asarray(y, np.float64)
-    n = y.size
+    v = y.tolist()  # the walks compare Python floats (the same IEEE comparisons, faster)
+    n = len(v)
     peaks = []
     i = 1
     while i < n - 1:
-        if y[i - 1] < y[i]:
+        if v[i - 1] < v[i]:
             j = i
-            while j + 1 < n and y[j + 1] == y[i]:
+            while j + 1 < n and v[j + 1] == v[i]:
                 j += 1
-            if j + 1 < n and y[j + 1] < y[i]:
+            if j + 1 < n and v[j + 1] < v[i]:
                 peaks.append((i + j) // 2)
             i = j + 1
         else:
             i += 1
     prom = np.empty(len(peaks))
     for k, p in enumerate(peaks):
+        top = v[p]
         left = p
-        while left > 0 and y[left - 1] <= y[p]:
+        while left > 0 and v[left - 1] <= top:
             left -= 1
         right = p
-        while right < n - 1 and y[right + 1] <= y[p]:
+        while right < n - 1 and v[right + 1] <= top:
             right += 1
         prom[k] = y[p] - max(y[left:p + 1].min(), y[p:right + 1].min())
     return np.asarray(peaks, dtype=np.intp), prom

@@ -52,6 +52,10 @@ class _Search:
         seen = held.get(id(modes))
         if seen is not None:
             return seen[1]
+        n = arrays["kappa"].size
+        if modes.size == n and np.array_equal(modes, np.arange(n)):
+            held[id(modes)] = (modes, arrays)  # every mode, in order: the arrays themselves
+            return arrays
         subsets = p.setdefault("_lookup_subsets", {})
         key = modes.tobytes()
         if key not in subsets:

@@ -375,7 +375,8 @@ def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float, hi: float,
 def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:
     """Abscissa of the maximum of ``y`` over the even grid ``x``, refined by a parabola
     through the best point and its neighbours."""
-    j = int(np.clip(np.argmax(y), 1, y.size - 2))
+    # np.clip's minimum(maximum()) on scalars (NaN kept), without its call overhead
+    j = min(max(int(np.argmax(y)), 1), y.size - 2)
     den = y[j - 1] - 2.0 * y[j] + y[j + 1]
     off = 0.5 * (y[j - 1] - y[j + 1]) / den if den < 0 else 0.0
-    return float(x[j] + float(np.clip(off, -1.0, 1.0)) * (x[1] - x[0]))
+    return float(x[j] + float(min(max(off, -1.0), 1.0)) * (x[1] - x[0]))

@@ -83,6 +83,8 @@ class _Search:
             om = self._gravity_bins(a, logh, fps, focal_px, to_bins)
         elif logh.size and bool(np.all(logh == logh[0])):
             om = self._omega_row(p, a, logh, fps, focal_px, to_bins)
+        elif logh.ndim == 1 and bool(np.all(logh[1:] > logh[:-1])):
+            om = self._omega_modes(p, a, logh, fps, focal_px, to_bins)  # a grid: distinct
         else:
             uniq, inv = np.unique(logh, return_inverse=True)
             om = self._omega_modes(p, a, uniq, fps, focal_px, to_bins)

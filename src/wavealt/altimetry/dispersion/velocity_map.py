@@ -4,6 +4,7 @@ velocity of a lattice at once by one 2-D FFT, its peaks, and the best of them re
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any
 
 import numpy as np
@@ -148,15 +149,17 @@ def _map_lattice(kx: np.ndarray, ky: np.ndarray, kappa: np.ndarray, tile: tuple[
         # the lattice's velocities, px/frame, in fftshift's order
         "uy": np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th)),
         "ux": np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))}
-    while len(_LATTICES) >= _LATTICES_KEPT:
-        del _LATTICES[next(iter(_LATTICES))]
-    _LATTICES[key] = lattice
+    with _LATTICES_LOCK:  # estimates in several threads share the lattices
+        while len(_LATTICES) >= _LATTICES_KEPT:
+            del _LATTICES[next(iter(_LATTICES))]
+        _LATTICES[key] = lattice
     return lattice
 
 
 #: The lattices last built (:func:`_map_lattice`), oldest first.
 _LATTICES: dict[tuple[Any, ...], dict[str, Any]] = {}
 _LATTICES_KEPT = 8
+_LATTICES_LOCK = threading.Lock()
 
 
 def _map_window(c: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

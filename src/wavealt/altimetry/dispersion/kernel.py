@@ -92,7 +92,7 @@ def _shares_arrays(om: np.ndarray, vx: np.ndarray, vy: np.ndarray, kx: np.ndarra
             w -= np.float32(0.5)
             np.clip(w, 0.0, 1.0, out=w)
         j += base
-        g = flat[j]
+        g = np.take(flat, j)
         val = g.imag * frac
         val += g.real
         if best is None:

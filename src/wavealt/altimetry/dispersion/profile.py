@@ -46,7 +46,24 @@ class _Profile(_VelocityMap):
         """Image velocity (px/frame) of highest score at altitude ``exp(logh)``: a compass
         (pattern) search from ``u``, the eight neighbours ``step`` away per call (the
         centre's score is known), halving ``step`` to ``min_step``.  The compiled form
-        (:func:`~wavealt.altimetry.dispersion.compiled.compass`) gives the same bits."""
+        (:func:`~wavealt.altimetry.dispersion.compiled.compass`) gives the same bits.
+
+        A search is a function of its arguments: the profile's passes repeat some (a dip
+        searched again from the same neighbour), and each is made once per periodogram
+        (``p["_searched"]``, keyed by the lookup arrays of ``modes``, which ``p`` holds)."""
+        key = (id(self._lookup(p, modes)), float(fps), float(focal_px), float(logh),
+               float(u[0]), float(u[1]), float(step), float(min_step))
+        searched = p.setdefault("_searched", {})
+        if key not in searched:
+            searched[key] = self._compass_search(p, fps, focal_px, logh, u, modes, step,
+                                                 min_step)
+        best, found = searched[key]
+        return best, found.copy()
+
+    def _compass_search(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
+                        logh: float, u: np.ndarray, modes: np.ndarray | None, step: float,
+                        min_step: float) -> tuple[float, np.ndarray]:
+        """The compass search of :meth:`_best_velocity`, made."""
         ck = compiled_module()
         if ck is not None:
             om, a, to_bins = self._compass_row(p, fps, focal_px, logh, modes)
@@ -84,18 +101,23 @@ class _Profile(_VelocityMap):
 
         ``omega`` grows with ``k``, so that altitude is ``focal_px kappa_q / k_pi``, with
         ``kappa_q`` the modes' ``ALIAS_MODE_FRACTION`` quantile and ``omega(k_pi) = pi fps``
-        (bisection in log ``k``; gravity alone: ``k_pi = (pi fps)^2 / g``).
+        (bisection in log ``k``; gravity alone: ``k_pi = (pi fps)^2 / g``; cached per
+        dispersion relation and frame rate).
         """
-        target = math.pi * fps
-        lo_k, hi_k = math.log(1e-6), math.log(1e9)
-        for _ in range(60):
-            mid = 0.5 * (lo_k + hi_k)
-            if float(self.omega(np.array([math.exp(mid)]))[0]) < target:
-                lo_k = mid
-            else:
-                hi_k = mid
+        log_k_pi = self.__dict__.setdefault("_log_k_pi", {})
+        key = (self.dispersion, float(fps))
+        if key not in log_k_pi:
+            target = math.pi * fps
+            lo_k, hi_k = math.log(1e-6), math.log(1e9)
+            for _ in range(60):
+                mid = 0.5 * (lo_k + hi_k)
+                if float(self.omega(np.array([math.exp(mid)]))[0]) < target:
+                    lo_k = mid
+                else:
+                    hi_k = mid
+            log_k_pi[key] = 0.5 * (lo_k + hi_k)
         kappa_q = float(np.quantile(p["kappa"], ALIAS_MODE_FRACTION))
-        return math.log(focal_px * kappa_q) - 0.5 * (lo_k + hi_k)
+        return math.log(focal_px * kappa_q) - log_k_pi[key]
 
     def _fit_blind(self, p: dict[str, np.ndarray], fps: float, focal_px: float,
                    logh0: float, u0: np.ndarray,

@@ -45,17 +45,22 @@ class _Search:
         arrays = p["_lookup"]
         if modes is None:
             return arrays
-        # the searches ask for the same few subsets many times: gathered once each; the
-        # last one asked for, most often the same array again, is known by identity (it
-        # is held, so its id is not reused) before its bytes are hashed
-        last = p.get("_lookup_last")
-        if last is not None and last[0] is modes:
-            return last[1]
+        # the searches ask for the same few subsets many times: gathered once each; an
+        # array asked for before is known by identity (it is held, so its id is not
+        # reused) before its bytes are hashed
+        held = p.setdefault("_lookup_held", {})
+        seen = held.get(id(modes))
+        if seen is not None:
+            return seen[1]
+        n = arrays["kappa"].size
+        if modes.size == n and np.array_equal(modes, np.arange(n)):
+            held[id(modes)] = (modes, arrays)  # every mode, in order: the arrays themselves
+            return arrays
         subsets = p.setdefault("_lookup_subsets", {})
         key = modes.tobytes()
         if key not in subsets:
             subsets[key] = {k: v[modes] for k, v in arrays.items()}
-        p["_lookup_last"] = (modes, subsets[key])
+        held[id(modes)] = (modes, subsets[key])
         return subsets[key]
 
     def _branch_values(self, p: dict[str, Any], fps: float, focal_px: float,
@@ -78,9 +83,11 @@ class _Search:
             om = self._gravity_bins(a, logh, fps, focal_px, to_bins)
         elif logh.size and bool(np.all(logh == logh[0])):
             om = self._omega_row(p, a, logh, fps, focal_px, to_bins)
+        elif logh.ndim == 1 and bool(np.all(logh[1:] > logh[:-1])):
+            om = self._omega_modes(p, a, logh, fps, focal_px, to_bins)  # a grid: distinct
         else:
             uniq, inv = np.unique(logh, return_inverse=True)
-            om = self._omega_bins(a["kappa"], uniq, fps, focal_px, to_bins)
+            om = self._omega_modes(p, a, uniq, fps, focal_px, to_bins)
             if uniq.size < logh.size or not np.array_equal(uniq, logh):
                 om = om[inv.ravel()]
         vx = (np.atleast_1d(ux) * to_bins).astype(np.float32)
@@ -113,8 +120,28 @@ class _Search:
         rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
         key = (float(logh[0]), float(fps), float(focal_px))
         if key not in rows:
-            rows[key] = self._omega_bins(a["kappa"], logh[:1], fps, focal_px, to_bins)
+            rows[key] = self._omega_modes(p, a, logh[:1], fps, focal_px, to_bins)
         return rows[key]
+
+    def _omega_modes(self, p: dict[str, Any], a: dict[str, np.ndarray], logh: np.ndarray,
+                     fps: float, focal_px: float, to_bins: float) -> np.ndarray:
+        """:meth:`_omega_bins` of the modes of lookup arrays ``a`` at each altitude
+        ``exp(logh)``, taken once per distinct wavenumber (a square tile's modes come in
+        fours of one ``|kappa|``; its distinct values, cached per mode subset, which ``p``
+        holds)."""
+        kappa, inv = self._distinct_kappa(p, a)
+        return self._omega_bins(kappa, logh, fps, focal_px, to_bins)[:, inv]
+
+    @staticmethod
+    def _distinct_kappa(p: dict[str, Any], a: dict[str, np.ndarray]
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct wavenumbers of the modes of lookup arrays ``a`` (:meth:`_lookup`)
+        and each mode's place among them (``np.unique``), cached in ``p``, which holds
+        ``a``."""
+        distinct = p.setdefault("_kappa_distinct", {})
+        if id(a) not in distinct:
+            distinct[id(a)] = np.unique(a["kappa"], return_inverse=True)
+        return distinct[id(a)]
 
     def _omega_bins(self, kappa: np.ndarray, logh: np.ndarray, fps: float, focal_px: float,
                     to_bins: float) -> np.ndarray:
@@ -303,26 +330,28 @@ def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     line about 0.4 s of its 1-s start-up budget; the scans are a few hundred points.
     """
     y = np.asarray(y, np.float64)
-    n = y.size
+    v = y.tolist()  # the walks compare Python floats (the same IEEE comparisons, faster)
+    n = len(v)
     peaks = []
     i = 1
     while i < n - 1:
-        if y[i - 1] < y[i]:
+        if v[i - 1] < v[i]:
             j = i
-            while j + 1 < n and y[j + 1] == y[i]:
+            while j + 1 < n and v[j + 1] == v[i]:
                 j += 1
-            if j + 1 < n and y[j + 1] < y[i]:
+            if j + 1 < n and v[j + 1] < v[i]:
                 peaks.append((i + j) // 2)
             i = j + 1
         else:
             i += 1
     prom = np.empty(len(peaks))
     for k, p in enumerate(peaks):
+        top = v[p]
         left = p
-        while left > 0 and y[left - 1] <= y[p]:
+        while left > 0 and v[left - 1] <= top:
             left -= 1
         right = p
-        while right < n - 1 and y[right + 1] <= y[p]:
+        while right < n - 1 and v[right + 1] <= top:
             right += 1
         prom[k] = y[p] - max(y[left:p + 1].min(), y[p:right + 1].min())
     return np.asarray(peaks, dtype=np.intp), prom
@@ -348,7 +377,8 @@ def _most_prominent(scan: np.ndarray, grid: np.ndarray, lo: float, hi: float,
 def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:
     """Abscissa of the maximum of ``y`` over the even grid ``x``, refined by a parabola
     through the best point and its neighbours."""
-    j = int(np.clip(np.argmax(y), 1, y.size - 2))
+    # np.clip's minimum(maximum()) on scalars (NaN kept), without its call overhead
+    j = min(max(int(np.argmax(y)), 1), y.size - 2)
     den = y[j - 1] - 2.0 * y[j] + y[j + 1]
     off = 0.5 * (y[j - 1] - y[j + 1]) / den if den < 0 else 0.0
-    return float(x[j] + float(np.clip(off, -1.0, 1.0)) * (x[1] - x[0]))
+    return float(x[j] + float(min(max(off, -1.0), 1.0)) * (x[1] - x[0]))

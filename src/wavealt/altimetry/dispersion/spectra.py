@@ -107,6 +107,23 @@ def _modes_within(series: tuple[np.ndarray | None, np.ndarray | None] | None,
     return g, pos
 
 
+@functools.lru_cache(maxsize=8)
+def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
+    """The share table's matrix and norms for ``t`` frames and ``n_psi`` phase steps
+    ``psi_j = 2 pi j / n_psi`` (:meth:`_Spectra._periodogram`): ``basis`` ``(2 n_psi, 2 t)``
+    float32, with ``[Re z; Im z] = basis @ [Re X; Im X]`` for
+    ``z_j = sum_t X_t e^{+i psi_j t}``, and ``D(psi_j)``; cached, read-only."""
+    psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
+    arg = np.outer(np.arange(t), psi)
+    cos, sin = np.cos(arg).T, np.sin(arg).T  # (n_psi, T)
+    basis = np.block([[cos, -sin], [sin, cos]]).astype(np.float32)
+    dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
+    denom = np.maximum(t - dirichlet / t, 1e-9)
+    basis.flags.writeable = False
+    denom.flags.writeable = False
+    return basis, denom
+
+
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -222,13 +239,7 @@ class _Spectra:
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
-        psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
-        arg = np.outer(np.arange(t), psi)
-        cos, sin = np.cos(arg).T, np.sin(arg).T  # (n_psi, T)
-        # [Re z; Im z] = basis @ [Re X; Im X] for z_j = sum_t X_t e^{+i psi_j t}
-        basis = np.block([[cos, -sin], [sin, cos]]).astype(np.float32)
-        dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
-        denom = np.maximum(t - dirichlet / t, 1e-9)
+        basis, denom = _share_basis(t, n_psi)
         corners = corners and _fast_len(int(self.corner_tiles * min(h, w))) >= 32
         parts = _corners(signal, self.corner_tiles) if corners else [signal]
         series = None
@@ -275,12 +286,17 @@ class _Spectra:
         x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
         energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
         # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step as one real matrix
-        # product per part (T is short: this beats an n_psi-point FFT per mode)
-        z = np.matmul(basis, x)  # (parts, 2 n_psi, modes): Re z over Im z
-        z *= z
-        z = z.sum(axis=0)
+        # product per part (T is short: this beats an n_psi-point FFT per mode), Re z over
+        # Im z; their squares summed over the parts in order, one part's product at a time
         n_psi = denom.size
-        explained = np.ascontiguousarray((z[:n_psi] + z[n_psi:]).T)
+        acc = np.matmul(basis, x[0])
+        acc *= acc
+        z = np.empty_like(acc) if len(x) > 1 else None
+        for part in x[1:]:
+            np.matmul(basis, part, out=z)
+            np.multiply(z, z, out=z)
+            acc += z
+        explained = np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         if not keep.all():
             idx, explained, energy = idx[keep], explained[keep], energy[keep]

@@ -19,6 +19,17 @@ _HESS_FLOOR = np.diag([1e-9, 1e-9, 1e-9])
 _HESS_FLOOR.flags.writeable = False
 
 
+def _band_modes(m: dict[str, Any], kb: float) -> tuple[np.ndarray, ...]:
+    """``kappa, kx, ky, psi, weight`` of the modes of ``m`` (:meth:`_Spectra._modes`) with
+    ``kappa <= kb``, in their order (cached in ``m``: every start refines on the same
+    bands)."""
+    cache = m.setdefault("_bands", {})
+    if kb not in cache:
+        sel = np.flatnonzero(m["kappa"] <= kb)
+        cache[kb] = tuple(m[k][sel] for k in ("kappa", "kx", "ky", "psi", "weight"))
+    return cache[kb]
+
+
 class _Start:
     """The blind fit's start of :class:`DispersionAltimeter`: velocity candidates and a
     per-mode phase-step fit of ``(log altitude, u)`` (uses ``max_shift_px``,
@@ -119,13 +130,19 @@ class _Start:
         out: dict[str, Any] = {}
         hess = None
         ck = compiled_start_module()
-        for kb in bands:
+        for i, kb in enumerate(bands):
+            # compiled, a band's steps take its modes alone (kappa <= kb, in order: the
+            # same modes used, packed in the same order); the last band's terms, of every
+            # mode, are the ones kept
+            sub = (kappa, kx, ky, psi, w0)
+            if ck is not None and i < len(bands) - 1:
+                sub = _band_modes(m, kb)
             for _ in range(6):
                 h = math.exp(logh)
-                om, dom = self._omega_and_dlog(kappa, focal_px, h)
+                om, dom = self._omega_and_dlog(sub[0], focal_px, h)
                 if ck is not None:  # the same bits in one pass over the modes
-                    terms = ck.refine_terms(om, dom, kappa, kx, ky, psi, w0, float(u[0]),
-                                            float(u[1]), float(fps), float(kb), TUKEY_C_RAD)
+                    terms = ck.refine_terms(om, dom, *sub, float(u[0]), float(u[1]),
+                                            float(fps), float(kb), TUKEY_C_RAD)
                     use, r, tw, s, jac, jw, r_use, wt_sum = terms
                     if r_use.size < 6 or wt_sum <= 0:  # six modes used, some weight
                         break

@@ -58,14 +58,22 @@ class _Trust:
         shell of the true altitude is the same at every wavenumber, while the optics'
         products (sum frequencies faster than the shell, difference frequencies slower) pose
         as altitudes that change with it."""
-        labels = np.empty(n, dtype=np.int64)
-        labels[np.argsort(p["kappa"], kind="stable")] = np.arange(n) * self.n_groups // n
-        return labels
+        cache = p.setdefault("_group_labels", {})
+        key = (n, self.n_groups)
+        if key not in cache:  # one periodogram serves several fits
+            labels = np.empty(n, dtype=np.int64)
+            labels[np.argsort(p["kappa"], kind="stable")] = np.arange(n) * self.n_groups // n
+            cache[key] = labels
+        return cache[key]
 
     def _group_curves(self, labels: np.ndarray, vals: np.ndarray) -> np.ndarray:
         """Per-group sums of ``vals`` ``(grid, modes)``: ``(n_groups, grid)``."""
-        return np.stack([np.bincount(labels, weights=row, minlength=self.n_groups)
-                         for row in vals], axis=1)
+        # one bincount over (row, group) bins: each bin adds its row's values in the
+        # modes' order, as a bincount per row does
+        g = self.n_groups
+        bins = (np.arange(vals.shape[0])[:, None] * g + labels[None, :]).ravel()
+        sums = np.bincount(bins, weights=vals.ravel(), minlength=vals.shape[0] * g)
+        return np.ascontiguousarray(sums.reshape(vals.shape[0], g).T)
 
     def _result(self, p: dict[str, np.ndarray], fit: dict[str, Any], t: int, fps: float,
                 focal_px: float) -> DispersionResult:
@@ -171,7 +179,9 @@ class _Trust:
         """
         t = int(p["frames"])
         kappa, kx, ky = p["kappa"], p["kx"], p["ky"]
-        om, dom = self._omega_and_dlog(kappa, focal_px, math.exp(logh))
+        # once per distinct wavenumber (:meth:`_omega_modes`)
+        distinct, inv = self._distinct_kappa(p, self._lookup(p, None))
+        om, dom = (v[inv] for v in self._omega_and_dlog(distinct, focal_px, math.exp(logh)))
         dop = kx * float(u[0]) + ky * float(u[1])  # px/frame . rad/px
         q = p["q"]
         n_psi = q.shape[1]

@@ -4,6 +4,7 @@ velocity of a lattice at once by one 2-D FFT, its peaks, and the best of them re
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any
 
 import numpy as np
@@ -25,42 +26,14 @@ class _VelocityMap:
     @staticmethod
     def _map_tables(p: dict[str, Any]) -> dict[str, Any]:
         """What the velocity map (:meth:`_velocity_map_peaks`) needs that does not depend on
-        the altitude, built once per periodogram (cached in ``p``): its modes, their share
-        tables' Fourier coefficients, the lattice's size, step and velocities and each
-        coefficient's place on it (and the occupied places, a quarter of the lattice), and
-        the modes' distinct wavenumbers (a mode's phase step depends on ``|kappa|`` alone,
-        and a square tile's modes come in fours of one ``|kappa|``).  The step, px/frame,
-        is half the width ``(2 pi / T) / kappa`` of the peak over the velocity of the
-        longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at least 24 modes); the modes
-        reach ``BLIND_MAP_REACH`` times that top, where the step is a whole width
-        (``constants``)."""
+        the altitude, built once per periodogram (cached in ``p``): the lattice and its
+        modes (:func:`_map_lattice`) and their share tables' Fourier coefficients."""
         if "_map" not in p:
-            modes = np.flatnonzero(p["kappa"] <= BLIND_MAP_KAPPA)
-            if modes.size < 24:
-                modes = np.argsort(p["kappa"], kind="stable")[:24]
-            th, tw = p["tile"]
-            top = float(p["kappa"][modes].max())
-            step = 0.5 * (2.0 * np.pi / p["frames"]) / top
-            modes = np.union1d(modes, np.flatnonzero(p["kappa"] <= BLIND_MAP_REACH * top))
-            # a fast FFT length at or above the lattice the step asks for (its spacing a
-            # little finer): a prime length costs several times as much
-            mx, my = (scipy.fft.next_fast_len(max(8, round(n / step))) for n in (tw, th))
-            n_psi = p["q"].shape[1]
-            k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
-            a = np.rint(p["kx"][modes] * tw / (2.0 * np.pi)).astype(np.int64)
-            b = np.rint(p["ky"][modes] * th / (2.0 * np.pi)).astype(np.int64)
-            idx = (((k[None, :] * b[:, None]) % my) * mx
-                   + (k[None, :] * a[:, None]) % mx).ravel()
-            kappa, rows = np.unique(p["kappa"][modes], return_inverse=True)
-            cells, slot = np.unique(idx, return_inverse=True)
-            p["_map"] = {
-                "step": step, "mx": mx, "my": my, "k": k, "kappa": kappa, "rows": rows,
-                # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
-                "coef": scipy.fft.fft(p["q"][modes], axis=1, workers=1),
-                "idx": idx, "cells": cells, "slot": slot,
-                # the lattice's velocities, px/frame, in fftshift's order
-                "uy": np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th)),
-                "ux": np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))}
+            m = dict(_map_lattice(p["kx"], p["ky"], p["kappa"], tuple(p["tile"]),
+                                  int(p["frames"]), int(p["q"].shape[1])))
+            # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
+            m["coef"] = scipy.fft.fft(p["q"][m.pop("modes")], axis=1, workers=1)
+            p["_map"] = m
         return p["_map"]
 
     def _map_step(self, p: dict[str, Any]) -> float:
@@ -133,6 +106,60 @@ class _VelocityMap:
                                           modes)))
         return self._best_velocity(p, fps, focal_px, logh, cand[k], modes, self._map_step(p),
                                    min_step)
+
+
+def _map_lattice(kx: np.ndarray, ky: np.ndarray, kappa: np.ndarray, tile: tuple[int, int],
+                 frames: int, n_psi: int) -> dict[str, Any]:
+    """The velocity map's lattice for a periodogram's modes ``kx, ky, kappa`` (rad/px) of
+    ``(h, w)`` ``tile``, ``frames`` and ``n_psi`` table steps: its modes, the lattice's
+    size, step and velocities and each of the modes' Fourier coefficients' place on it (and
+    the occupied places, a quarter of the lattice), and the modes' distinct wavenumbers (a
+    mode's phase step depends on ``|kappa|`` alone, and a square tile's modes come in fours
+    of one ``|kappa|``).  The step, px/frame, is half the width ``(2 pi / T) / kappa`` of
+    the peak over the velocity of the longest modes' top (``kappa <= BLIND_MAP_KAPPA``, at
+    least 24 modes); the modes reach ``BLIND_MAP_REACH`` times that top, where the step is
+    a whole width (``constants``).
+
+    The same modes come back window after window (the periodogram's fixed subsample of a
+    tile's plane): the lattices of the last ``_LATTICES_KEPT`` are kept, shared (their
+    arrays are not to be written).
+    """
+    key = (kx.tobytes(), ky.tobytes(), kappa.tobytes(), tile, frames, n_psi)
+    if key in _LATTICES:
+        return _LATTICES[key]
+    modes = np.flatnonzero(kappa <= BLIND_MAP_KAPPA)
+    if modes.size < 24:
+        modes = np.argsort(kappa, kind="stable")[:24]
+    th, tw = tile
+    top = float(kappa[modes].max())
+    step = 0.5 * (2.0 * np.pi / frames) / top
+    modes = np.union1d(modes, np.flatnonzero(kappa <= BLIND_MAP_REACH * top))
+    # a fast FFT length at or above the lattice the step asks for (its spacing a little
+    # finer): a prime length costs several times as much
+    mx, my = (scipy.fft.next_fast_len(max(8, round(n / step))) for n in (tw, th))
+    k = np.rint(np.fft.fftfreq(n_psi, 1.0 / n_psi)).astype(np.int64)
+    a = np.rint(kx[modes] * tw / (2.0 * np.pi)).astype(np.int64)
+    b = np.rint(ky[modes] * th / (2.0 * np.pi)).astype(np.int64)
+    idx = (((k[None, :] * b[:, None]) % my) * mx + (k[None, :] * a[:, None]) % mx).ravel()
+    distinct, rows = np.unique(kappa[modes], return_inverse=True)
+    cells, slot = np.unique(idx, return_inverse=True)
+    lattice = {
+        "modes": modes, "step": step, "mx": mx, "my": my, "k": k, "kappa": distinct,
+        "rows": rows, "idx": idx, "cells": cells, "slot": slot,
+        # the lattice's velocities, px/frame, in fftshift's order
+        "uy": np.fft.fftshift(np.fft.fftfreq(my, 1.0 / th)),
+        "ux": np.fft.fftshift(np.fft.fftfreq(mx, 1.0 / tw))}
+    with _LATTICES_LOCK:  # estimates in several threads share the lattices
+        while len(_LATTICES) >= _LATTICES_KEPT:
+            del _LATTICES[next(iter(_LATTICES))]
+        _LATTICES[key] = lattice
+    return lattice
+
+
+#: The lattices last built (:func:`_map_lattice`), oldest first.
+_LATTICES: dict[tuple[Any, ...], dict[str, Any]] = {}
+_LATTICES_KEPT = 8
+_LATTICES_LOCK = threading.Lock()
 
 
 def _map_window(c: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -14,6 +14,8 @@ $(BIN)/.installed: pyproject.toml
 	# The CPU wheel: any other torch spec pulls gigabytes of CUDA packages.
 	$(BIN)/python -m pip install -q torch==2.13.0
 	$(BIN)/python -m pip install -q -e '.[test]'
+	# Compile the altimeter's inner loops into numba's disk cache (about 10 s, once).
+	$(BIN)/python -c "from wavealt.altimetry.dispersion import warm_up; warm_up()"
 	touch $@
 
 install: $(BIN)/.installed

@@ -1372,3 +1372,34 @@ def test_the_compiled_best_start_is_the_scores_argmax() -> None:
                 got = ck.best_start(om, a["kx"], a["ky"], a["pair"], c[:, 0].copy(),
                                     c[:, 1].copy(), to_bins)
                 assert got == int(np.argmax(want))
+
+
+def test_warm_up_compiles_every_loop_a_blind_or_prior_fit_calls() -> None:
+    """After :func:`warm_up`, blind and prior fits of other frames (the paper renderer's,
+    256^2, a glinty and a clean sequence) compile nothing more: the warm-up reaches every
+    compiled loop with the argument types the fits pass."""
+    from wavealt.altimetry.dispersion import kernel, warm_up
+
+    assert warm_up()
+    modules = (kernel.compiled_module(), kernel.compiled_start_module())
+    loops = [getattr(m, name) for m in modules for name in dir(m)
+             if hasattr(getattr(m, name), "signatures")]
+
+    def compiled() -> list[int]:
+        return [len(loop.signatures) for loop in loops]
+
+    before = compiled()
+    entry = ("shares_loop", "compass", "best_start", "scatter_products", "map_peaks",
+             "ring_costs", "refine_terms")
+    assert all(getattr(m, name).signatures for m in modules for name in entry
+               if hasattr(m, name))
+    cfg = preset_config("paper", size=256, frames=30, altitude_m=(5.0, 5.0),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.6, 0.6))
+    sc = cfg.sample_scenario(3)
+    data = generate_sequence(sc, cfg)
+    est = DispersionAltimeter()
+    for frames in (data.clean, data.glinty):
+        est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px)
+        est.estimate(frames[:10], fps=cfg.fps, focal_px=cfg.focal_px,
+                     velocity_mps=sc.camera_velocity_mps, velocity_sigma_mps=1.0)
+    assert compiled() == before

@@ -218,7 +218,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
-    from wavealt.altimetry.dispersion import DispersionAltimeter
+    from wavealt.altimetry.dispersion import DispersionAltimeter, warm_up
     from wavealt.camera import NadirView, read_calibration
     from wavealt.io import check_output_folder
     from wavealt.live import LIVE_FILE, run_live
@@ -241,6 +241,9 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     est = {known: DispersionAltimeter(dispersion=dispersion,
                                       attitude="level" if known else "estimate")
            for known in (False, True)}
+    # the compiled loops before the stream opens (on a cold cache about 10 s, which would
+    # otherwise hold up the first estimate); every window then takes them, exact ones too
+    warm_up()
     sigma = velocity_sigma_mps
     if velocity_from_vehicle and sigma is None:
         sigma = 1.0

@@ -122,6 +122,7 @@ from wavealt.altimetry.dispersion.spectra import (  # noqa: F401
     _windowed_modes,
     _wrap,
 )
+from wavealt.altimetry.dispersion.warm import warm_up
 
 __all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
-           "estimate_altitude", "reason_class"]
+           "estimate_altitude", "reason_class", "warm_up"]

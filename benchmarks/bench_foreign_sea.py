@@ -347,9 +347,10 @@ def exposed_radiance(sc: Scene, amp: np.ndarray, n_frames: int,
                      view: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
                      ) -> np.ndarray:
     """Radiance of each frame as a rolling shutter reads it (row y exposed from
-    ``y / SIZE * readout_s`` after the frame's start) and averaged over the exposure
-    ``shutter_s`` (instants ``SUB_STEP_S`` apart), from renders at sub-frame times no more than
-    ``SUB_STEP_S`` apart, interpolated linearly in time for each row."""
+    ``y / SIZE * readout_s`` after the frame's start), averaged over the exposure
+    ``shutter_s``; the radiance is rendered at sub-frame times at most ``SUB_STEP_S`` apart
+    and interpolated linearly in time for each row, at instants across the exposure at most
+    ``SUB_STEP_S`` apart."""
     span = sc.readout_s + sc.shutter_s
     taus = np.linspace(0.0, span, max(2, math.ceil(span / SUB_STEP_S) + 1))
     starts = np.arange(SIZE) / SIZE * sc.readout_s

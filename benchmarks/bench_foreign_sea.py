@@ -3,7 +3,8 @@
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
         [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie]
-        [--camera rolling,blur,autoexposure] [--save-clips DIR] [--self-check]
+        [--camera rolling,blur,autoexposure] [--tell-readout] [--save-clips DIR]
+        [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -491,8 +492,9 @@ def _altimeter() -> Any:
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
                   max_tilt_deg: float = 0.0, sky: str = "gradient",
-                  camera: tuple[str, ...] = ()) -> list[dict]:
-    """One record per window of every row of clip ``seed``."""
+                  camera: tuple[str, ...] = (), tell_readout: bool = False) -> list[dict]:
+    """One record per window of every row of clip ``seed``; ``tell_readout``: the altimeter
+    is given the rolling shutter's readout time."""
     sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
@@ -513,7 +515,8 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
             t0 = time.perf_counter()
             try:
                 res = _altimeter().estimate(frames[start:start + n], fps=FPS,
-                                            focal_px=sc.focal_px, **velocity[mode])
+                                            focal_px=sc.focal_px, **velocity[mode],
+                                            readout_s=sc.readout_s if tell_readout else 0.0)
                 out = {"est": res.altitude_m, "std": res.altitude_std_m,
                        "trusted": bool(res.trusted), "reason": res.reason,
                        "quality": res.quality, "signal": res.signal,
@@ -725,6 +728,8 @@ def main() -> int:
     ap.add_argument("--camera", default="",
                     help=f"comma list of camera effects ({', '.join(CAMERA_EFFECTS)}): a "
                          "rolling shutter, motion blur, automatic exposure; default none")
+    ap.add_argument("--tell-readout", action="store_true",
+                    help="give the altimeter the rolling shutter's readout time (readout_s)")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -744,7 +749,7 @@ def main() -> int:
         ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
-                  camera=camera)
+                  camera=camera, tell_readout=a.tell_readout)
     t0, records = time.perf_counter(), list[dict]()
     with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
@@ -756,6 +761,7 @@ def main() -> int:
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
+               "tell_readout": a.tell_readout,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

@@ -183,6 +183,10 @@ def test_video_roundtrip_and_windows(tmp_path, run_cli, frames) -> None:
     (["--fps", "30", "--focal-px", "50", "--velocity-mps", "0,0", "--velocity-sigma-mps", "inf"],
      "--velocity-sigma-mps"),
     (["--fps", "30", "--focal-px", "50", "--dispersion", "shallow"], "--dispersion"),
+    (["--fps", "30", "--focal-px", "50", "--readout-ms", "-5"],
+     "--readout-ms must be a finite number >= 0; got -5.0"),
+    (["--fps", "30", "--focal-px", "50", "--readout-ms", "50"],
+     "readout_s 0.05 s is longer than a frame interval at 30 fps"),
 ])
 def test_bad_arguments(tmp_path, run_cli, frames, argv_tail, match) -> None:
     write_frames_folder(tmp_path / "f", frames[0])
@@ -205,3 +209,23 @@ def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
     bad.write_bytes(b"not a video")
     code, _, err = run_cli(["altitude", str(bad), "--fps", "30", "--focal-px", "50"])
     assert code == 2 and "bad.mp4" in err
+
+
+def test_a_readout_time_reaches_the_altimeter(tmp_path, run_cli, frames) -> None:
+    """``--readout-ms`` is the altimeter's ``readout_s``: the same window, the same
+    altitude as the call made directly."""
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+
+    clip, focal_px = frames
+    write_frames_folder(tmp_path / "f", clip)
+    code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30", "--focal-px",
+                              str(focal_px), "--json", "--window", "12", "--dispersion",
+                              "gravity", "--velocity-mps", "0.2,0", "--readout-ms", "20"])
+    assert code == 0, err
+    direct = DispersionAltimeter(dispersion="gravity").estimate(
+        read_input(tmp_path / "f"), fps=30.0, focal_px=focal_px, velocity_mps=(0.2, 0.0),
+        readout_s=0.02)
+    plain = DispersionAltimeter(dispersion="gravity").estimate(
+        read_input(tmp_path / "f"), fps=30.0, focal_px=focal_px, velocity_mps=(0.2, 0.0))
+    assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
+    assert direct.altitude_m != plain.altitude_m

@@ -37,7 +37,8 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
                     window: int | None = None, step: int | None = None,
                     out: Path | str | None = None, progress: bool = False,
                     velocity_mps: tuple[float, float] | None = None,
-                    velocity_sigma_mps: float = 0.0, times_s: np.ndarray | None = None,
+                    velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
+                    times_s: np.ndarray | None = None,
                     on_window: Callable[[dict[str, Any]], Any] | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
@@ -75,6 +76,9 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     velocity_sigma_mps : float
         How far (m/s, one sigma) the camera's velocity over the water may lie from
         ``velocity_mps``; 0 for exact.
+    readout_s : float
+        A rolling shutter's readout time, s (:meth:`DispersionAltimeter.estimate`); 0: a
+        global shutter.
     on_window : callable, optional
         Called with each window's row as soon as it is estimated (e.g. to send it to a
         flight controller).
@@ -116,7 +120,8 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     for start, stop in tqdm(ranges, desc="altitude", unit="window", disable=not progress):
         w_fps = (stop - start - 1) / (t[stop - 1] - t[start])
         res = est.estimate(arr[start:stop], fps=w_fps, focal_px=focal_px,
-                           velocity_mps=velocity_mps, velocity_sigma_mps=velocity_sigma_mps)
+                           velocity_mps=velocity_mps, velocity_sigma_mps=velocity_sigma_mps,
+                           readout_s=readout_s)
         rows.append({"start_frame": start, "stop_frame": stop,
                      "time_s": float(0.5 * (t[start] + t[stop - 1])), "fps": float(w_fps),
                      **res.to_dict()})

@@ -79,6 +79,11 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
               help="How far (m/s, one sigma) the camera's velocity over the water may lie from "
                    "--velocity-mps, e.g. the water's unknown current (a vehicle's navigation "
                    "gives its velocity over ground); 0 = exact.  [default: 0]")
+@click.option("--readout-ms", type=float, default=None, metavar="MS",
+              help="A rolling shutter's readout time, ms: the rows are read top to bottom "
+                   "over it (a drone camera's is typically 10-30 ms; see its sensor's data). "
+                   "A row read later sees the sea carried further; given, the fit undoes it.  "
+                   "[default: a global shutter]")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: altitude_m, altitude_std_m (1 sigma), trusted, reason "
                    "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "
@@ -101,8 +106,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
              focal_px: float | None, fov_deg: float | None, calibration: Path | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
-             velocity_sigma_mps: float | None, as_json: bool, out: Path | None,
-             force: bool, mavlink: str | None, mavlink_range: str) -> None:
+             velocity_sigma_mps: float | None, readout_ms: float | None, as_json: bool,
+             out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """Altitude from a folder of frames, a video file or a live stream, by the wave
     dispersion relation.
 
@@ -141,6 +146,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         if not (math.isfinite(velocity_sigma_mps) and velocity_sigma_mps >= 0):
             msg = f"--velocity-sigma-mps must be a finite number >= 0; got {velocity_sigma_mps!r}"
             raise ValueError(msg)
+    if readout_ms is not None and not (math.isfinite(readout_ms) and readout_ms >= 0):
+        msg = f"--readout-ms must be a finite number >= 0; got {readout_ms!r}"
+        raise ValueError(msg)
+    readout_s = (readout_ms or 0.0) / 1000.0
     if live is not None:
         if dispersion == "auto":
             dispersion = "gravity-capillary"
@@ -148,7 +157,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        fov_deg=fov_deg, calibration=calibration, roll_deg=roll_deg,
                        pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
                        dispersion=dispersion, velocity=velocity,
-                       velocity_sigma_mps=velocity_sigma_mps,
+                       velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
@@ -178,7 +187,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             frames, times_s=clip.times_s, focal_px=focal_px, window=window, step=step,
             dispersion=dispersion, attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
-            velocity_sigma_mps=velocity_sigma_mps or 0.0,
+            velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
             on_window=link.send_altitude if link is not None else None)
     finally:
         if link is not None:
@@ -214,6 +223,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
+                   readout_s: float,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
@@ -279,7 +289,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         if view is not None:
             frames, f = view(frames), view.focal_px
         res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
-                                  velocity_sigma_mps=sd if vel is not None else 0.0).to_dict()
+                                  velocity_sigma_mps=sd if vel is not None else 0.0,
+                                  readout_s=readout_s).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
         if not as_json:

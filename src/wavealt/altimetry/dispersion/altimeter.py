@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_frames
-from wavealt.altimetry.dispersion.attitude import fit_tilt
+from wavealt.altimetry.dispersion.attitude import fit_tilt, roll_pitch
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
@@ -34,7 +34,7 @@ from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
 from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, block_excess
-from wavealt.altimetry.dispersion.spectra import _Spectra
+from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust, tile_scatter
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
@@ -196,7 +196,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
                  velocity_mps: tuple[float, float] | None = None,
-                 velocity_sigma_mps: float = 0.0) -> DispersionResult:
+                 velocity_sigma_mps: float = 0.0, readout_s: float = 0.0) -> DispersionResult:
         """Estimate altitude, its uncertainty and the camera's velocity over the water.
 
         Three modes (``DispersionResult.mode``):
@@ -224,15 +224,24 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         velocity_sigma_mps : float
             How far, m/s (one sigma, per axis), the camera's velocity over the water may lie
             from ``velocity_mps``; 0 for exact.  Ignored without ``velocity_mps``.
+        readout_s : float
+            A rolling shutter's readout time, s: the frame's rows are read top to bottom,
+            ``readout_s / rows`` apart (0: a global shutter).  At most one frame interval.
+            A row read later sees the sea carried further; given, the fit is made again
+            with each row's delay undone at the first fit's velocity.
 
         Returns
         -------
         DispersionResult
         """
-        with _one_blas_thread():
-            return self._estimate(frames, fps=fps, focal_px=focal_px,
-                                  velocity_mps=velocity_mps,
-                                  velocity_sigma_mps=velocity_sigma_mps)
+        token = set_rolling(readout_s, fps, np.shape(frames)[1] if np.ndim(frames) >= 3 else 1)
+        try:
+            with _one_blas_thread():
+                return self._estimate(frames, fps=fps, focal_px=focal_px,
+                                      velocity_mps=velocity_mps,
+                                      velocity_sigma_mps=velocity_sigma_mps)
+        finally:
+            ROLLING.reset(token)
 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
                   velocity_mps: tuple[float, float] | None,
@@ -258,6 +267,14 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             raise ValueError(msg)
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
         res, signal, p = self._fit(arr, fps, focal_px, prior)
+        rolling = ROLLING.get()
+        if rolling is not None and res.n_modes > 0:
+            # A rolling shutter: fitted again with every periodogram's row delays undone,
+            # each mode's phase step unwrapped at the first fit's Doppler line
+            # (:meth:`_rolled_share_table`); the caller's reset restores the context.
+            scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame
+            ROLLING.set((rolling[0], tuple(v * scale for v in res.camera_velocity_mps)))
+            res, signal, p = self._fit(arr, fps, focal_px, prior)
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
@@ -309,7 +326,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                     or step.tilt_deg > MAX_TILT_DEG):
                 break
             turned = tilt_rotation(*step.roll_pitch_deg) @ rot
-            roll, pitch = _roll_pitch(turned)
+            roll, pitch = roll_pitch(turned)
             if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
                 break
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
@@ -470,18 +487,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         return self._result(p, fit, t, fps, focal_px)
 
 
-def _roll_pitch(rot: np.ndarray) -> tuple[float, float]:
-    """Roll and pitch, degrees, of :func:`wavealt.camera.tilt_rotation` whose sea normal
-    (third row) is that of rotation ``rot``."""
-    a, b, c = (float(v) for v in rot[2])
-    return math.degrees(math.atan2(a, c)), math.degrees(math.asin(max(-1.0, min(b, 1.0))))
-
-
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                       velocity_mps: tuple[float, float] | None = None,
-                      velocity_sigma_mps: float = 0.0, **kw: Any) -> DispersionResult:
+                      velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
+                      **kw: Any) -> DispersionResult:
     """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
-    velocity_mps=, velocity_sigma_mps=)``."""
+    velocity_mps=, velocity_sigma_mps=, readout_s=)``."""
     return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,
                                               velocity_mps=velocity_mps,
-                                              velocity_sigma_mps=velocity_sigma_mps)
+                                              velocity_sigma_mps=velocity_sigma_mps,
+                                              readout_s=readout_s)

@@ -186,3 +186,10 @@ def fit_tilt(fits: list[tuple[float, float, float, float]],
     except np.linalg.LinAlgError:
         return None
     return TiltFit(a, b, cov, chi2_level, chi2_tilt, 1.0 / sw)
+
+
+def roll_pitch(rot: np.ndarray) -> tuple[float, float]:
+    """Roll and pitch, degrees, of :func:`wavealt.camera.tilt_rotation` whose sea normal
+    (third row) is that of rotation ``rot``."""
+    a, b, c = (float(v) for v in rot[2])
+    return math.degrees(math.atan2(a, c)), math.degrees(math.asin(max(-1.0, min(b, 1.0))))

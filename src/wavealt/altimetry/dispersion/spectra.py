@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextvars
 import functools
 import math
 from typing import Any
@@ -10,7 +11,27 @@ from typing import Any
 import numpy as np
 import scipy.fft
 
+from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.constants import MIN_FIT_MODES, STATIC_NORM_FRACTION
+
+#: A rolling shutter's row delay, frames, and the image velocity (px/frame, the table's
+#: convention) whose Doppler line unwraps each mode's phase step, or None (no de-rolling).
+ROLLING: contextvars.ContextVar[tuple[float, Any] | None] = contextvars.ContextVar(
+    "rolling", default=None)
+
+
+def set_rolling(readout_s: float, fps: float, rows: int) -> contextvars.Token:
+    """Set :data:`ROLLING` for an estimate of frames of ``rows`` rows read ``readout_s``
+    seconds from first to last row (0: a global shutter, None), no velocity yet; its token
+    for the caller's reset.  ``readout_s`` must be finite, >= 0 and at most a frame
+    interval."""
+    fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+    readout_s = check_finite_number("readout_s", readout_s, low=0.0)
+    if readout_s > 1.0 / fps:
+        msg = (f"readout_s {readout_s:g} s is longer than a frame interval at {fps:g} fps "
+               f"({1.0 / fps:g} s)")
+        raise ValueError(msg)
+    return ROLLING.set((readout_s * fps / rows, None) if readout_s else None)
 
 
 def _wrap(phase: np.ndarray) -> np.ndarray:
@@ -267,6 +288,9 @@ class _Spectra:
         changed)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
+        rolling = ROLLING.get()
+        if rolling is not None and rolling[1] is not None:
+            return self._rolled_share_table(parts, basis, denom, idx, rolling, carried)
         given, pos = _modes_within(series, (len(parts), t), idx)
         if given is not None:
             # a mode's series and mean are its own: taken from the same transform they are
@@ -313,6 +337,47 @@ class _Spectra:
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
                 None if carried is not None else g, None if carried is not None else modes)
+
+    def _rolled_share_table(self, parts, basis, denom, idx, rolling, carried):
+        t, h, w = parts[0].shape
+        row_delay, (ux, uy) = rolling
+        plane_kx, plane_ky, plane_kappa = self._plane(h, w)[:3]
+        y = np.arange(h, dtype=np.float32) - np.float32((h - 1) / 2)
+        series = []
+        for weight in (None, y, y * y):
+            weighted = parts if weight is None else [part * weight[:, None] for part in parts]
+            g = _windowed_modes(weighted, idx).astype(np.complex128)
+            g -= g.mean(axis=1, keepdims=True)
+            series.append(g)
+        if carried is not None:
+            _remove_carried(series[0], -(plane_kx[idx] * carried[0]
+                                         + plane_ky[idx] * carried[1]))
+        n_psi = denom.size
+        psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
+        line = -(plane_kx[idx] * ux + plane_ky[idx] * uy)  # the Doppler line, rad/frame
+        turns = np.round((line[None, :] - psi[:, None]) / (2.0 * np.pi))
+        c_psi = (psi[:, None] + 2.0 * np.pi * turns) * row_delay  # (n_psi, modes)
+        basis_c = basis[:n_psi].astype(np.float64) + 1j * basis[n_psi:].astype(np.float64)
+        explained = np.zeros((n_psi, idx.size))
+        for x, xy, xyy in zip(*series):
+            z, zy, zyy = (basis_c @ np.concatenate([g.real, g.imag]) for g in (x, xy, xyy))
+            z += 1j * c_psi * zy - 0.5 * c_psi**2 * zyy
+            explained += z.real**2 + z.imag**2
+        a, b, e = series[0], 1j * series[1], -0.5 * series[2]
+
+        def dot(u, v):
+            return np.einsum("ptm,ptm->m", u.conj(), v).real
+
+        s1 = c_psi
+        energy = (dot(a, a) + s1**2 * dot(b, b) + s1**4 * dot(e, e) + 2 * s1 * dot(a, b)
+                  + 2 * s1**2 * dot(a, e) + 2 * s1**3 * dot(b, e))
+        total = dot(a, a)
+        keep = total > 1e-20 * max(float(total.max(initial=0.0)), 1e-30)
+        idx = idx[keep]
+        share = (explained.T[keep] / denom[None, :] / energy.T[keep]).astype(np.float32)
+        share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
+        return (_sharpen(share, self.sharpness), plane_kx[idx], plane_ky[idx],
+                plane_kappa[idx], None, None)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the

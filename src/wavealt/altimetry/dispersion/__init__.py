@@ -63,7 +63,9 @@ window's interval spans the whole range.  The blind profile is the
 score maximised over the velocity, so a point the continuation leaves below both of its
 neighbours is searched again from theirs.
 Glint is first clipped (per-pixel spikes far above the sequence's robust spread), or
-removed with the colour (chroma) signal.
+removed with the colour (chroma) signal.  A rolling shutter whose readout time is given
+(``readout_s``) is undone in a second fit: each periodogram column takes the rows' phases
+back by the delay at its own phase step, unwrapped at the first fit's Doppler line.
 
 A camera that does not look straight down sees the sea at a scale that changes across the
 frame.  The four corner tiles, each fitted alone, measure it: over a level sea a pinhole

@@ -14,8 +14,9 @@ import scipy.fft
 from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.constants import MIN_FIT_MODES, STATIC_NORM_FRACTION
 
-#: A rolling shutter's row delay, frames, and the image velocity (px/frame, the table's
-#: convention) whose Doppler line unwraps each mode's phase step, or None (no de-rolling).
+#: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
+#: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
+#: Doppler line unwraps each mode's phase step (None before that fit: no rows undone).
 ROLLING: contextvars.ContextVar[tuple[float, Any] | None] = contextvars.ContextVar(
     "rolling", default=None)
 
@@ -285,7 +286,8 @@ class _Spectra:
         least-squares component at the carried pattern's phase step ``-kappa . carried`` is
         removed first (:func:`_remove_carried`).  ``series``: ``(series, their modes)`` of
         the same parts, already taken, used where they hold every mode (a copy is
-        changed)."""
+        changed).  Frames read by a rolling shutter (:data:`ROLLING`, once a first fit gave
+        a velocity) take :meth:`_rolled_share_table`."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
@@ -338,7 +340,26 @@ class _Spectra:
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
                 None if carried is not None else g, None if carried is not None else modes)
 
-    def _rolled_share_table(self, parts, basis, denom, idx, rolling, carried):
+    def _rolled_share_table(self, parts: list[np.ndarray], basis: np.ndarray,
+                            denom: np.ndarray, idx: np.ndarray,
+                            rolling: tuple[float, tuple[float, float]],
+                            carried: np.ndarray | None) -> tuple[Any, ...]:
+        """:meth:`_share_table` of frames read by a rolling shutter, each row ``c`` frames
+        after the one above it, with every row's delay undone (``rolling = (c, u)``: ``u``
+        the image velocity, px/frame, of a first fit); the mode series are not kept (None).
+
+        Row ``y`` of frame ``n`` shows the sea at ``n + c y``, so a wave of wavevector ``k``
+        and phase step ``Psi`` a frame appears at ``(k_x, k_y - Psi c)``.  Column ``psi_j``
+        of mode ``k`` takes the tiles' spectrum at ``k`` with ``e^{+i Psi c y'}`` applied to
+        each row (``y'`` from the tile's centre: a delay common to the tile leaves ``|z|``
+        as it is), to second order in ``Psi c y'``: ``z_j = B X + i c Psi B Y - (c Psi)^2 / 2
+        B W``, ``X, Y, W`` the spectra of the tiles times ``1, y', y'^2``.  ``Psi`` is
+        ``psi_j`` unwrapped at the first fit's Doppler line ``-k.u``: a mode carried across
+        the frame faster than half a period a frame turns by more than ``pi``, and its own
+        step, not the principal one, sets its rows' phases.  Each column's share is of its
+        own series' energy (``X + i c Psi Y - (c Psi)^2 / 2 W``), so none exceeds 1.  A
+        carried pattern is removed from ``X`` alone.
+        """
         t, h, w = parts[0].shape
         row_delay, (ux, uy) = rolling
         plane_kx, plane_ky, plane_kappa = self._plane(h, w)[:3]
@@ -365,7 +386,7 @@ class _Spectra:
             explained += z.real**2 + z.imag**2
         a, b, e = series[0], 1j * series[1], -0.5 * series[2]
 
-        def dot(u, v):
+        def dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
             return np.einsum("ptm,ptm->m", u.conj(), v).real
 
         s1 = c_psi

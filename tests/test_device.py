@@ -74,6 +74,16 @@ def test_reproduce_rejects_an_unknown_training_run(tmp_path, run_cli) -> None:
     assert not (tmp_path / "rep").exists()
 
 
+def test_reproduce_takes_all_for_every_training_run(tmp_path, run_cli) -> None:
+    # validation passes "all" (the help's default) and stops at the next check: OUT a file
+    out = tmp_path / "rep"
+    out.write_text("keep me", encoding="utf-8")
+    code, _, err = run_cli(["reproduce", str(out), "--train", "all"])
+    assert code == 2
+    assert "is a file" in err and "train condition" not in err
+    assert out.read_text(encoding="utf-8") == "keep me"
+
+
 def test_config_records_device_and_history_the_input_share(tiny_dataset, tmp_path) -> None:
     run = tmp_path / "run"
     train(tiny_dataset, run, TrainConfig(condition="bright", epochs=1, **TINY), progress=False,

@@ -220,7 +220,7 @@ def evaluate(dataset: str, estimator: str, conditions: str | None, split: str, o
               help="auto (CUDA, then MPS, then CPU), cpu, cuda, cuda:N or mps.")
 @click.option("--train", "train_runs", default=None, metavar="RUNS",
               help="CNN runs to train, comma-separated (clean, glinty, residual, tmf-min, "
-                   "temporal-clean, temporal-glinty) [all]; 'clean' alone is the paper's own "
+                   "temporal-clean, temporal-glinty), or all [all]; 'clean' alone is the paper's own "
                    "experiment, the CPU-sized paper run.")
 @click.option("--threads", type=int, default=None,
               help="torch threads (0 = every core) [the scale's: quick 1, paper 0].")

@@ -124,7 +124,9 @@ def reproduce(out: Path | str, *, scale: str = "quick", progress: bool = True,
     sc = SCALES[scale]
     resolve_device(device)  # an unavailable device fails before anything is written
     runs_all = [*sc.train_conditions, *(f"temporal-{c}" for c in sc.temporal_conditions)]
-    wanted = list(train_conditions) if train_conditions else runs_all
+    # "all" (what the command line's help shows as the default) names every run
+    wanted = (runs_all if not train_conditions or list(train_conditions) == ["all"]
+              else list(train_conditions))
     for name in wanted:
         check_choice("train condition", name, runs_all)
     if threads is not None:

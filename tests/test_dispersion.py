@@ -37,6 +37,7 @@ from wavealt.altimetry.dispersion.constants import (
     PAIRED_BAND_SD_FRACTION,
 )
 from wavealt.altimetry.dispersion.profile import paired_band
+from wavealt.altimetry.dispersion.signal import bin_frames, working_bin
 from wavealt.altimetry.series import altitude_series
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -1449,3 +1450,50 @@ def test_a_bad_readout_is_refused(readout_s: float, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         DispersionAltimeter().estimate(frames, fps=30.0, focal_px=focal_px,
                                        velocity_mps=camera_v, readout_s=readout_s)
+
+
+# -- the working scale: large frames binned ------------------------------------------------
+@pytest.mark.parametrize(("shape", "working_px", "b"), [
+    ((256, 256), 256, 1), ((511, 900), 256, 1), ((512, 512), 256, 2), ((720, 1280), 256, 2),
+    ((1080, 1920), 256, 4), ((2160, 3840), 256, 8), ((4320, 7680), 256, 8),
+    ((1080, 1920), 0, 1), ((1080, 1920), 128, 8)])
+def test_the_working_binning_is_the_largest_power_of_two_that_keeps_the_scale(
+        shape, working_px, b) -> None:
+    assert working_bin(*shape, working_px) == b
+
+
+def test_binned_frames_are_block_means_from_the_origin() -> None:
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 256, size=(2, 9, 11, 3), dtype=np.uint8)
+    out = bin_frames(frames, 2)
+    assert out.shape == (2, 4, 5, 3) and out.dtype == np.float32
+    want = frames[:, :8, :10].astype(np.float64).reshape(2, 4, 2, 5, 2, 3).mean(axis=(2, 4))
+    np.testing.assert_allclose(out, want / 255.0, rtol=1e-6)
+    # a block of equal float values gives that value, to the bit
+    flat = rng.random((3, 4, 4), dtype=np.float32)
+    assert np.array_equal(bin_frames(np.repeat(np.repeat(flat, 4, 1), 4, 2), 4), flat)
+
+
+def test_frames_twice_the_working_scale_read_as_their_binned_frames() -> None:
+    """Each pixel of a 256-px rolling-shutter clip made four: the altimeter bins them back,
+    with the focal length and the rows' read times, and reads the 256-px clip's result to the
+    bit (saying so); told not to bin, it reads the 512-px frames as they are."""
+    frames, focal_px, camera_v = _rolling_frames(2.0, 0.8, 270.0, 0.03, size=256)
+    big = np.repeat(np.repeat(frames, 2, axis=1), 2, axis=2)
+    est = DispersionAltimeter(dispersion="gravity")
+    kw = {"fps": 30.0, "velocity_mps": camera_v, "readout_s": 0.03}
+    small = est.estimate(frames, focal_px=focal_px, **kw)
+    binned = est.estimate(big, focal_px=2.0 * focal_px, **kw)
+    assert binned.altitude_m == small.altitude_m
+    assert binned.altitude_std_m == small.altitude_std_m
+    assert binned.camera_velocity_mps == small.camera_velocity_mps
+    assert binned.signal == small.signal + "+binned2" and binned.trusted == small.trusted
+    native = DispersionAltimeter(dispersion="gravity", working_px=0).estimate(
+        big, focal_px=2.0 * focal_px, **kw)
+    assert "binned" not in native.signal and native.altitude_m != small.altitude_m
+
+
+@pytest.mark.parametrize("bad", [-1, 2.5])
+def test_a_bad_working_scale_is_refused(bad) -> None:
+    with pytest.raises(ValueError, match="working_px must be an integer >= 0"):
+        DispersionAltimeter(working_px=bad)

@@ -16,6 +16,7 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDES,
     BLIND_MAP_KAPPA,
     BLOCK_CODED_MIN_EXCESS,
+    BLOCK_PERIOD_PX,
     CARRIED_CHECKED_MATCH_PX,
     CARRIED_CHECKED_MIN_RATIO,
     CARRIED_MATCH_BINS,
@@ -28,34 +29,18 @@ from wavealt.altimetry.dispersion.constants import (
     SIGNALS,
     TILES,
     TRUSTED_QUALITY,
+    WORKING_PX,
 )
-from wavealt.altimetry.dispersion.kernel import use_compiled
+from wavealt.altimetry.dispersion.kernel import _one_blas_thread, use_compiled  # noqa: F401
 from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
-from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, block_excess
+from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, bin_frames, block_excess
+from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust, tile_scatter
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
-
-
-def _one_blas_thread() -> Any:
-    """Context in which NumPy's BLAS runs on one thread.
-
-    The matrix products of one window are small; threaded, OpenBLAS's workers keep
-    spinning after each product and fight other threads for the cores: on two cores the
-    median 10-frame window took 26 ms instead of 19 (p90 86 against 22 ms).
-    """
-    from threadpoolctl import ThreadpoolController
-
-    global _BLAS_CONTROLLER
-    if _BLAS_CONTROLLER is None:
-        _BLAS_CONTROLLER = ThreadpoolController()
-    return _BLAS_CONTROLLER.limit(limits=1, user_api="blas")
-
-
-_BLAS_CONTROLLER: Any = None
 
 
 class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
@@ -131,6 +116,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         uncertainty (:meth:`_unmeasured_tilt`); ``"level"``: the frames are fitted as those
         of a camera looking straight down (frames already levelled at an attitude known,
         :class:`wavealt.camera.NadirView`, may still be tilted by the attitude's error).
+    working_px : int
+        Frames whose shorter side is at least twice this are binned first (``b x b`` px
+        averaged, ``b`` the largest power of two up to ``MAX_BIN`` that leaves it at least
+        this; the focal length over ``b``): the band's limits in rad/px were set at this
+        scale (``WORKING_PX``).  The result's ``signal`` says ``+binned2``; 0 never bins.
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
@@ -140,8 +130,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                  tiles: str = "full", signal: str = "auto", glint_r2: float = 0.3,
                  n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
                  sharpness: float = 5.0, corner_tiles: float = 0.4,
-                 attitude: str = "estimate") -> None:
+                 attitude: str = "estimate", working_px: int = WORKING_PX) -> None:
         check_choice("signal", signal, SIGNALS)
+        if int(working_px) != working_px or working_px < 0:
+            msg = f"working_px must be an integer >= 0; got {working_px!r}"
+            raise ValueError(msg)
+        self.working_px = int(working_px)
         check_choice("attitude", attitude, ATTITUDES)
         self.attitude = attitude
         self.corner_tiles = check_finite_number("corner_tiles", corner_tiles, low=0.0, high=0.5)
@@ -234,18 +228,20 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         -------
         DispersionResult
         """
-        token = set_rolling(readout_s, fps, np.shape(frames)[1] if np.ndim(frames) >= 3 else 1)
+        shape = np.shape(frames)
+        b = working_bin(shape[1], shape[2], self.working_px) if len(shape) >= 3 else 1
+        token = set_rolling(readout_s, fps, shape[1] // b if len(shape) >= 3 else 1)
         try:
             with _one_blas_thread():
                 return self._estimate(frames, fps=fps, focal_px=focal_px,
                                       velocity_mps=velocity_mps,
-                                      velocity_sigma_mps=velocity_sigma_mps)
+                                      velocity_sigma_mps=velocity_sigma_mps, binning=b)
         finally:
             ROLLING.reset(token)
 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
                   velocity_mps: tuple[float, float] | None,
-                  velocity_sigma_mps: float = 0.0) -> DispersionResult:
+                  velocity_sigma_mps: float = 0.0, binning: int = 1) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
@@ -265,8 +261,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
+        if binning > 1:  # to the working scale (``working_px``)
+            arr, focal_px = bin_frames(arr, binning), focal_px / binning
+        lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
-        res, signal, p = self._fit(arr, fps, focal_px, prior)
+        res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:
             # A rolling shutter: fitted again with every periodogram's row delays undone,
@@ -274,14 +273,14 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             # (:meth:`_rolled_share_table`); the caller's reset restores the context.
             scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame
             ROLLING.set((rolling[0], tuple(v * scale for v in res.camera_velocity_mps)))
-            res, signal, p = self._fit(arr, fps, focal_px, prior)
+            res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
         wanted = self._distrust(res) is None if level else self._holds_shell(res)
         fits = self._tile_fits(signal, res, fps, focal_px, p) if wanted else []
         if not level:
-            res, fits = self._level(arr, fps, focal_px, prior, res, fits)
+            res, fits = self._level(arr, fps, focal_px, prior, res, fits, lattice)
             if res.attitude_deg is None:
                 res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
                               or res.reason)
@@ -289,11 +288,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                     else "prior" if velocity_sigma_mps > 0 else "exact")
         if self._distrust(res) is None:
             res.reason = self._tile_verdict(fits, res)
+        res.signal += f"+binned{binning}" if binning > 1 else ""
         return self._judge(res)
 
     def _level(self, arr: np.ndarray, fps: float, focal_px: float,
                prior: tuple[float, float, float] | None, res: DispersionResult,
-               fits: list[tuple[float, float, float, float]]
+               fits: list[tuple[float, float, float, float]], lattice: int = BLOCK_PERIOD_PX
                ) -> tuple[DispersionResult, list[tuple[float, float, float, float]]]:
         """The fit of frames ``arr`` levelled at the tilt their corner tiles show, and its
         tiles; ``res`` and its tiles ``fits`` where they show none.
@@ -330,7 +330,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
             if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
                 break
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
-            new, signal, p = self._fit(view(arr), fps, view.focal_px, prior)
+            new, signal, p = self._fit(view(arr), fps, view.focal_px, prior, lattice)
             if not self._holds_shell(new):
                 break
             rot, res, focal, made = turned, new, view.focal_px, step
@@ -352,12 +352,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         return res, fits
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
-             prior: tuple[float, float, float] | None
+             prior: tuple[float, float, float] | None, lattice: int = BLOCK_PERIOD_PX
              ) -> tuple[DispersionResult, np.ndarray, dict[str, Any] | None]:
         """The fit of the signal(s) of checked frames ``arr`` (:meth:`estimate`), the scalar
         sequence it was made of and that sequence's periodogram (:meth:`_fit_signal`);
         ``prior``: the camera's velocity ``(vx, vy)`` and its sigma (0: exact), None for
-        blind."""
+        blind; ``lattice``: a block coder's period in ``arr``, px (binned frames: shorter;
+        under 2, whole blocks averaged, none)."""
         if self.signal == "auto" and arr.ndim == 4:
             weights, r2 = self._colour(arr)
             if r2 < self.glint_r2:
@@ -371,7 +372,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                 # chroma read 13.5 m as 1.06 m, trusted; docs/dispersion.md, sixteenth
                 # session), and the luminance is fitted alone.
                 chroma = self._chroma(arr, weights)
-                if block_excess(chroma) <= BLOCK_CODED_MIN_EXCESS:
+                if lattice < 2 or block_excess(chroma, lattice) <= BLOCK_CODED_MIN_EXCESS:
                     res, p = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
                     if self._distrust(res) is None:
                         return res, chroma, p

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from wavealt._checks import check_choice
-from wavealt.altimetry.dispersion.constants import BLOCK_PERIOD_PX, DEGLINTS, MAD_TO_SD
+from wavealt.altimetry.dispersion.constants import BLOCK_PERIOD_PX, DEGLINTS, MAD_TO_SD, MAX_BIN
 
 
 def _to_gray(frames: np.ndarray) -> np.ndarray:
@@ -15,6 +15,36 @@ def _to_gray(frames: np.ndarray) -> np.ndarray:
     if frames.ndim == 4:
         return (frames @ np.full(3, scale / 3.0, dtype=np.float32)).astype(np.float32, copy=False)
     return frames.astype(np.float32) * scale
+
+
+def working_bin(h: int, w: int, working_px: int) -> int:
+    """The binning that brings ``h x w`` px frames to the working scale ``working_px``
+    (``WORKING_PX``): the largest power of two, at most ``MAX_BIN``, that leaves the shorter
+    side at least ``working_px``; 1 for none (and always for ``working_px`` 0)."""
+    b = 1
+    while working_px and b < MAX_BIN and min(h, w) >= 2 * b * working_px:
+        b *= 2
+    return b
+
+
+def bin_frames(frames: np.ndarray, b: int) -> np.ndarray:
+    """``(T, H, W[, 3])`` uint8 or float frames binned ``b x b`` px (``b`` a power of two):
+    each pixel the mean of a block, float32 in [0, 1], ``(T, H // b, W // b[, 3])``.  The rows
+    and columns beyond the last whole block are dropped at the bottom and right, so that the
+    blocks keep the frame's origin (where a block coder's 8-px lattice starts).  The blocks
+    are summed in pairs, rows then columns: a block of equal values gives that value."""
+    t, h, w = frames.shape[:3]
+    out = np.empty((t, h // b, w // b, *frames.shape[3:]), dtype=np.float32)
+    scale = np.float32((1.0 / 255.0 if frames.dtype == np.uint8 else 1.0) / (b * b))
+    for frame, dst in zip(frames, out):
+        x = frame[:h // b * b, :w // b * b].astype(np.float32)
+        n = 1
+        while n < b:
+            x = x[0::2] + x[1::2]
+            x = x[:, 0::2] + x[:, 1::2]
+            n *= 2
+        np.multiply(x, scale, out=dst)
+    return out
 
 
 def _has_texture(arr: np.ndarray) -> bool:

@@ -427,6 +427,29 @@ def test_periodogram_takes_the_corner_tiles() -> None:
             DispersionAltimeter(corner_tiles=bad)
 
 
+@pytest.mark.parametrize(("parts", "t", "n_psi"),
+                         [(4, 10, 64), (1, 30, 256), (4, 30, 256), (4, 40, 64), (2, 15, 96)])
+def test_explained_energy_is_the_direct_sum_on_either_route(parts: int, t: int,
+                                                            n_psi: int) -> None:
+    """The share table's ``|z_j|^2`` (summed over the parts) and energies equal the direct
+    sums ``|sum_t X_t e^{+i psi_j t}|^2`` and ``sum_t |X_t|^2``, whether taken as matrix
+    products (little work) or through the autocorrelation (lags folded where the clip is
+    longer than half the table)."""
+    from wavealt.altimetry.dispersion.spectra import _explained, _share_basis
+
+    rng = np.random.default_rng(parts * 1000 + t)
+    g = (rng.normal(size=(parts, t, 37)) + 1j * rng.normal(size=(parts, t, 37)))
+    g = (g - g.mean(axis=1, keepdims=True)).astype(np.complex64)
+    explained, energy = _explained(g, _share_basis(t, n_psi)[0])
+    psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
+    z = np.einsum("ptm,tj->pmj", g.astype(np.complex128),
+                  np.exp(1j * np.outer(np.arange(t), psi)))
+    want = (np.abs(z) ** 2).sum(axis=0)
+    assert explained.shape == (37, n_psi) and explained.dtype == np.float32
+    np.testing.assert_allclose(explained, want, rtol=0, atol=1e-5 * want.max())
+    np.testing.assert_allclose(energy, (np.abs(g) ** 2).sum(axis=(0, 1)), rtol=1e-5)
+
+
 def test_gravity_shortcut_matches_the_dispersion_relation(score_form: str) -> None:
     """The scan's per-mode values equal the explained share of one travelling wave, evaluated
     directly at the phase step eq. (1) predicts (better of the two directions), for the

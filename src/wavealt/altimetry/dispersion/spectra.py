@@ -146,6 +146,56 @@ def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
     return basis, denom
 
 
+def _explained(g: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``|z_j|^2`` summed over the parts, ``(modes, n_psi)`` float32, and each mode's energy
+    ``E = sum_t |X_t|^2`` summed over the parts (float64), of mean-free mode series ``g``
+    ``(parts, T, modes)`` complex64: ``z_j = sum_t X_t e^{+i psi_j t}`` at the table's steps
+    ``psi_j = 2 pi j / n_psi`` (``basis``: :func:`_share_basis`'s).
+
+    Where the work is small (one part, or a short clip: ``parts T n_psi <= 4096``), as one
+    real matrix product per part, ``[Re z; Im z] = basis @ [Re X; Im X]``, the squares
+    summed over the parts in order.  Else through the series' autocorrelation summed over
+    the parts, ``r_l = sum_t X_{t+l} conj(X_t)`` (``r_{-l} = conj(r_l)``):
+    ``|z(psi)|^2 = sum_l r_l e^{i psi l}``, a real trigonometric polynomial of degree
+    ``T - 1``, and ``E = r_0``; ``r`` is the inverse transform of the parts' power spectra
+    (zero-padded to at least ``2 T - 1``: no lag wraps), summed, and the table one real
+    inverse transform of ``r`` per mode (lags at or past half the table folded onto
+    theirs modulo ``n_psi``).  The same sums to float32 rounding; four 30-frame 96^2
+    tiles, 2598 modes: 3.8 ms on one core against 8.5 for the products (10 frames:
+    1.4 against 1.0; one 30-frame tile: about equal).
+    """
+    n_parts, t, m = g.shape
+    n_psi = basis.shape[0] // 2
+    if n_parts * t * n_psi <= 4096:
+        x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
+        energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
+        acc = np.matmul(basis, x[0])
+        acc *= acc
+        z = np.empty_like(acc) if n_parts > 1 else None
+        for part in x[1:]:  # one part's product at a time
+            np.matmul(basis, part, out=z)
+            np.multiply(z, z, out=z)
+            acc += z
+        return np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T), energy
+    f = scipy.fft.fft(np.ascontiguousarray(g.transpose(0, 2, 1)),
+                      n=1 << (2 * t - 2).bit_length(), axis=2, workers=1)
+    power = f.real ** 2
+    power += f.imag ** 2
+    r = scipy.fft.ifft(power.sum(axis=0), axis=1, workers=1)[:, :t]
+    energy = r[:, 0].real.astype(np.float64)
+    if t > n_psi // 2:  # lags reach half the table: folded (the sum stays Hermitian)
+        c = np.zeros((m, n_psi), dtype=r.dtype)
+        for lag in range(t):
+            c[:, lag % n_psi] += r[:, lag]
+            if lag:
+                c[:, -lag % n_psi] += np.conj(r[:, lag])
+        r = c[:, :n_psi // 2 + 1]
+    explained = scipy.fft.irfft(r, n=n_psi, axis=1, workers=1)
+    explained *= np.float32(n_psi)
+    np.maximum(explained, np.float32(0.0), out=explained)  # rounding below 0
+    return explained, energy
+
+
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -296,8 +346,7 @@ class _Spectra:
         given, pos = _modes_within(series, (len(parts), t), idx)
         if given is not None:
             # a mode's series and mean are its own: taken from the same transform they are
-            # the same bits; the same memory layout (order "K"): einsum and matmul sum in
-            # its order
+            # the same bits (copied where the carried pattern's removal changes them)
             if pos is not None:
                 g = given[:, :, pos]
             else:
@@ -309,20 +358,7 @@ class _Spectra:
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
-        x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
-        energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
-        # z_j = sum_t X_t e^{+i psi_j t} for every mode and table step as one real matrix
-        # product per part (T is short: this beats an n_psi-point FFT per mode), Re z over
-        # Im z; their squares summed over the parts in order, one part's product at a time
-        n_psi = denom.size
-        acc = np.matmul(basis, x[0])
-        acc *= acc
-        z = np.empty_like(acc) if len(x) > 1 else None
-        for part in x[1:]:
-            np.matmul(basis, part, out=z)
-            np.multiply(z, z, out=z)
-            acc += z
-        explained = np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T)
+        explained, energy = _explained(g, basis)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         if not keep.all():
             idx, explained, energy = idx[keep], explained[keep], energy[keep]

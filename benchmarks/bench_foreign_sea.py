@@ -81,6 +81,7 @@ TENSION = 0.074 / 1025.0  # surface tension over density of sea water, m^3/s^2
 ALPHA = 0.0081  # Phillips constant of the Pierson-Moskowitz spectrum
 R0 = ((1.34 - 1.0) / (1.34 + 1.0)) ** 2  # normal-incidence Fresnel reflectance
 SIZE, GRID, FPS, FRAMES = 256, 640, 30.0, 30
+GRID_PER_SIZE = GRID  # the sea's grid points per 256 px of frame (--size)
 #: row name -> (mode, frames per window); each 30-frame clip is cut into disjoint windows
 ROWS = {"blind30": ("blind", 30), "blind15": ("blind", 15),
         "exact10": ("exact", 10), "prior10": ("prior", 10)}
@@ -482,11 +483,26 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
     return capture(sc, radiance(sc, sx, sy, view), rng)
 
 
+#: the altimeter's working scale (``--working-px``; None: its default)
+WORKING_PX: int | None = None
+
+
+def set_size(size: int, working_px: int | None = None) -> None:
+    """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
+    grows with them, its margin around the frame in the same proportion), fitted at the
+    altimeter's working scale ``working_px`` (None: its default); also each worker's
+    initializer."""
+    global SIZE, GRID, WORKING_PX
+    SIZE, GRID, WORKING_PX = size, GRID_PER_SIZE * size // 256, working_px
+    _altimeter.cache_clear()
+
+
 @lru_cache(maxsize=1)
 def _altimeter() -> Any:
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
-    return DispersionAltimeter(dispersion="gravity-capillary")
+    kw = {} if WORKING_PX is None else {"working_px": WORKING_PX}
+    return DispersionAltimeter(dispersion="gravity-capillary", **kw)
 
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
@@ -730,6 +746,11 @@ def main() -> int:
                          "rolling shutter, motion blur, automatic exposure; default none")
     ap.add_argument("--tell-readout", action="store_true",
                     help="give the altimeter the rolling shutter's readout time (readout_s)")
+    ap.add_argument("--size", type=int, default=SIZE,
+                    help="frame side, px, over the same field of view (default 256)")
+    ap.add_argument("--working-px", type=int, default=None,
+                    help="the altimeter's working scale (DispersionAltimeter(working_px=); "
+                         "0: frames as they are; default: the altimeter's)")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -742,6 +763,11 @@ def main() -> int:
     if set(camera) - set(CAMERA_EFFECTS):
         unknown = ", ".join(sorted(set(camera) - set(CAMERA_EFFECTS)))
         ap.error(f"unknown camera effects: {unknown} (known: {', '.join(CAMERA_EFFECTS)})")
+    if not 64 <= a.size <= 2048:
+        ap.error(f"--size must be within 64-2048 px; got {a.size}")
+    if a.working_px is not None and a.working_px < 0:
+        ap.error(f"--working-px must be >= 0; got {a.working_px}")
+    set_size(a.size, a.working_px)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -751,7 +777,8 @@ def main() -> int:
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
                   camera=camera, tell_readout=a.tell_readout)
     t0, records = time.perf_counter(), list[dict]()
-    with Pool(a.workers) if a.workers > 1 else nullcontext() as pool:
+    pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px))
+    with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
             records.extend(recs)
@@ -761,7 +788,7 @@ def main() -> int:
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
-               "tell_readout": a.tell_readout,
+               "tell_readout": a.tell_readout, "size": a.size, "working_px": a.working_px,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

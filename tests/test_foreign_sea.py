@@ -114,3 +114,28 @@ def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:
     bad = _run("--clips", "1", "--camera", "rolling,fisheye")
     assert bad.returncode == 2
     assert "unknown camera effects: fisheye (known: rolling, blur, autoexposure)" in bad.stderr
+
+
+def test_a_larger_camera_sees_the_same_scene_and_is_binned(tmp_path) -> None:
+    """``--size 512`` renders the same scene at twice the pixels (the same field of view);
+    the altimeter bins them to its working scale unless ``--working-px 0``."""
+    runs = {}
+    for name, extra in (("binned", ()), ("native", ("--working-px", "0"))):
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--size", "512",
+                   *extra, "--out", str(out), "--save-clips", str(tmp_path / name))
+        assert res.returncode == 0, res.stderr[-2000:]
+        runs[name] = json.loads(out.read_text())
+    clip = np.load(tmp_path / "binned" / "clip5.npy")
+    assert clip.shape[1:3] == (512, 512)
+    small = tmp_path / "small.json"
+    assert _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--out",
+                str(small)).returncode == 0
+    scene = {k: json.loads(small.read_text())["records"][0][k]
+             for k in ("altitude_m", "hfov_deg", "u10", "drift")}
+    assert {k: runs["binned"]["records"][0][k] for k in scene} == scene
+    assert runs["binned"]["size"] == 512
+    assert all(r["signal"].endswith("+binned2") for r in runs["binned"]["records"])
+    assert not any("binned" in r["signal"] for r in runs["native"]["records"])
+    bad = _run("--clips", "1", "--size", "4000")
+    assert bad.returncode == 2 and "--size must be within 64-2048 px" in bad.stderr

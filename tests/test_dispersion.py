@@ -1520,3 +1520,20 @@ def test_frames_twice_the_working_scale_read_as_their_binned_frames() -> None:
 def test_a_bad_working_scale_is_refused(bad) -> None:
     with pytest.raises(ValueError, match="working_px must be an integer >= 0"):
         DispersionAltimeter(working_px=bad)
+
+
+def test_frames_not_measured_at_the_working_scale_are_fitted_as_they_are() -> None:
+    """A still camera 12 m up, 10 frames of 512 px: binned, its shortest waves turn too
+    little to be trusted; the frames as they are resolve waves half as long, and that
+    trusted fit is the result (saying so)."""
+    frames, focal_px, camera_v = _linear_frames(12.0, 4.0, 0.0, 30.0, size=512, seed=1)
+    kw = {"fps": 30.0, "velocity_mps": camera_v}
+    binned = DispersionAltimeter(dispersion="gravity").estimate(
+        bin_frames(frames, 2), focal_px=focal_px / 2, **kw)
+    native = DispersionAltimeter(dispersion="gravity", working_px=0).estimate(
+        frames, focal_px=focal_px, **kw)
+    res = DispersionAltimeter(dispersion="gravity").estimate(frames, focal_px=focal_px, **kw)
+    assert not binned.trusted and native.trusted
+    assert res.altitude_m == native.altitude_m and res.trusted
+    assert res.signal == native.signal + "+native"
+    assert abs(res.altitude_m / 12.0 - 1) < 0.02

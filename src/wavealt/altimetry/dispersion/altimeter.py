@@ -49,11 +49,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
     Parameters
     ----------
     dispersion : {"gravity-capillary", "gravity"}
-        Dispersion relation of the water.  ``"gravity-capillary"``
-        (``omega^2 = g k + (sigma/rho) k^3``) is the physics of real water; the ``paper``
-        simulator preset moves its waves with ``omega = sqrt(g k)``, so evaluate it with
-        ``"gravity"`` (at 1 m the capillary term is several times ``g k`` at the Nyquist
-        wavenumber).
+        Dispersion relation of the water: ``"gravity-capillary"`` (``omega^2 = g k +
+        (sigma/rho) k^3``), real water; ``"gravity"`` (``omega = sqrt(g k)``), the ``paper``
+        simulator preset's.
     deglint : {"clip", "median", "none"}
         Glint suppression before the analysis (:func:`deglint`).
     clip_sigma : float
@@ -84,15 +82,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         more of the tests; or the luminance alone where the colour explains more, or where
         the chroma shows a block coder's lattice (:func:`~.signal.block_excess`,
         ``BLOCK_CODED_MIN_EXCESS``: JPEG and MPEG quantise the chroma coarsely on 8-px
-        blocks, and the lattice mixes the short waves into false shells in it).  Paper
-        renderer, 10 frames, aided, 2 x 100 scenes (seeds 7 and 11), relative MAE glinty
-        3.25 / 2.38 % with the luminance alone, 1.46 / 1.78 % auto (before the corner
-        tiles); clean unchanged.
+        blocks, and the lattice mixes the short waves into false shells in it).
     glint_r2 : float
         ``"auto"`` fits the chroma first when the squared correlation of luminance and
-        chroma over the frame's pixels is below this.  White glint adds to the luminance and
-        not to the chroma: on the paper renderer R^2 is 0.3-0.99 (median 0.65) on clean
-        frames and 0-0.5 (median 0.08) on glinty ones.
+        chroma over the frame's pixels is below this (white glint adds to the luminance and
+        not to the chroma).
     n_psi : int, optional
         Phase steps tabulated by the periodogram; default: enough to resolve its peak
         (``2 pi / T`` wide) with about six steps, at least 64.
@@ -132,22 +126,20 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                  sharpness: float = 5.0, corner_tiles: float = 0.4,
                  attitude: str = "estimate", working_px: int = WORKING_PX) -> None:
         check_choice("signal", signal, SIGNALS)
-        if int(working_px) != working_px or working_px < 0:
-            msg = f"working_px must be an integer >= 0; got {working_px!r}"
-            raise ValueError(msg)
-        self.working_px = int(working_px)
         check_choice("attitude", attitude, ATTITUDES)
         self.attitude = attitude
         self.corner_tiles = check_finite_number("corner_tiles", corner_tiles, low=0.0, high=0.5)
         self.signal = signal
         self.glint_r2 = check_finite_number("glint_r2", glint_r2, low=0.0, high=1.0)
-        for name, v, least in (("n_psi", n_psi, 16), ("n_scan", n_scan, 8), ("n_groups", n_groups, 3)):
+        for name, v, least in (("working_px", working_px, 0), ("n_psi", n_psi, 16),
+                               ("n_scan", n_scan, 8), ("n_groups", n_groups, 3)):
             if v is None and name == "n_psi":
                 continue
             if int(v) != v or v < least:
                 msg = f"{name} must be an integer >= {least}; got {v!r}"
                 raise ValueError(msg)
         self.n_psi = None if n_psi is None else int(n_psi)
+        self.working_px = int(working_px)
         self.n_scan, self.n_groups = int(n_scan), int(n_groups)
         self.sharpness = check_finite_number("sharpness", sharpness, low=1.0)
         check_choice("tiles", tiles, TILES)
@@ -193,16 +185,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                  velocity_sigma_mps: float = 0.0, readout_s: float = 0.0) -> DispersionResult:
         """Estimate altitude, its uncertainty and the camera's velocity over the water.
 
-        Three modes (``DispersionResult.mode``):
-
-        * **blind** (no ``velocity_mps``): altitude and the camera's velocity relative to the
-          water are searched jointly;
-        * **prior** (``velocity_mps`` and ``velocity_sigma_mps > 0``): the camera's velocity
-          relative to the water lies within about ``3 velocity_sigma_mps`` of
-          ``velocity_mps`` (a vehicle's velocity over ground from satellite navigation, the
-          water's current and wind drift unknown: sigma ~ the largest current expected);
-        * **exact** (``velocity_sigma_mps = 0``): the camera's velocity over the water is
-          ``velocity_mps`` (a hovering camera over still water: ``(0, 0)``).
+        Three modes (``DispersionResult.mode``): **blind** (no ``velocity_mps``: altitude and
+        velocity searched jointly); **prior** (``velocity_sigma_mps > 0``: the velocity over
+        the water within about ``3 velocity_sigma_mps`` of ``velocity_mps``, e.g. satellite
+        navigation with the current unknown); **exact** (``velocity_sigma_mps = 0``).
+        Binned frames (``working_px``) not trusted are fitted as they are too (``+native``).
 
         Parameters
         ----------
@@ -230,12 +217,26 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         """
         shape = np.shape(frames)
         b = working_bin(shape[1], shape[2], self.working_px) if len(shape) >= 3 else 1
-        token = set_rolling(readout_s, fps, shape[1] // b if len(shape) >= 3 else 1)
+        kw = {"fps": fps, "focal_px": focal_px, "velocity_mps": velocity_mps,
+              "velocity_sigma_mps": velocity_sigma_mps}
+        res = self._estimate_at(frames, b, readout_s, **kw)
+        if b > 1 and not res.trusted:
+            # not measured at the working scale: the frames as they are resolve waves b
+            # times shorter (high up, where the working scale's shortest turn slowly)
+            native = self._estimate_at(frames, 1, readout_s, **kw)
+            if native.trusted:
+                native.signal += "+native"
+                return native
+        return res
+
+    def _estimate_at(self, frames: Any, binning: int, readout_s: float,
+                     **kw: Any) -> DispersionResult:
+        """:meth:`_estimate` of ``frames`` binned ``binning`` px a side, read in ``readout_s``."""
+        shape = np.shape(frames)
+        token = set_rolling(readout_s, kw["fps"], shape[1] // binning if len(shape) >= 3 else 1)
         try:
             with _one_blas_thread():
-                return self._estimate(frames, fps=fps, focal_px=focal_px,
-                                      velocity_mps=velocity_mps,
-                                      velocity_sigma_mps=velocity_sigma_mps, binning=b)
+                return self._estimate(frames, binning=binning, **kw)
         finally:
             ROLLING.reset(token)
 
@@ -312,8 +313,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         The tilted model is kept only where the levelled view's tiles then read one scale
         (at least two, their scatter within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`): a tilt that one tile's wrong peak made does not
-        level the frames, and those are judged as given.
-        Measurements: ``docs/dispersion.md``, eighteenth session.
+        level the frames, and those are judged as given (``docs/dispersion.md``).
         """
         from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
 

@@ -1524,8 +1524,8 @@ def test_a_bad_working_scale_is_refused(bad) -> None:
 
 def test_frames_not_measured_at_the_working_scale_are_fitted_as_they_are() -> None:
     """A still camera 12 m up, 10 frames of 512 px: binned, its shortest waves turn too
-    little to be trusted; the frames as they are resolve waves half as long, and that
-    trusted fit is the result (saying so)."""
+    little to be trusted; binned half as much (here: not at all) the frames resolve waves
+    half as long, and that trusted fit is the result (saying so)."""
     frames, focal_px, camera_v = _linear_frames(12.0, 4.0, 0.0, 30.0, size=512, seed=1)
     kw = {"fps": 30.0, "velocity_mps": camera_v}
     binned = DispersionAltimeter(dispersion="gravity").estimate(
@@ -1535,5 +1535,5 @@ def test_frames_not_measured_at_the_working_scale_are_fitted_as_they_are() -> No
     res = DispersionAltimeter(dispersion="gravity").estimate(frames, focal_px=focal_px, **kw)
     assert not binned.trusted and native.trusted
     assert res.altitude_m == native.altitude_m and res.trusted
-    assert res.signal == native.signal + "+native"
+    assert res.signal == native.signal + "+finer"
     assert abs(res.altitude_m / 12.0 - 1) < 0.02

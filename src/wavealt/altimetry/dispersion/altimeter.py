@@ -189,7 +189,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         velocity searched jointly); **prior** (``velocity_sigma_mps > 0``: the velocity over
         the water within about ``3 velocity_sigma_mps`` of ``velocity_mps``, e.g. satellite
         navigation with the current unknown); **exact** (``velocity_sigma_mps = 0``).
-        Binned frames (``working_px``) not trusted are fitted as they are too (``+native``).
+        Binned frames (``working_px``) not trusted are fitted binned half as much (``+finer``).
 
         Parameters
         ----------
@@ -221,12 +221,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
               "velocity_sigma_mps": velocity_sigma_mps}
         res = self._estimate_at(frames, b, readout_s, **kw)
         if b > 1 and not res.trusted:
-            # not measured at the working scale: the frames as they are resolve waves b
-            # times shorter (high up, where the working scale's shortest turn slowly)
-            native = self._estimate_at(frames, 1, readout_s, **kw)
-            if native.trusted:
-                native.signal += "+native"
-                return native
+            # not measured at the working scale: frames binned half as much resolve waves
+            # half as long (high up, where the working scale's shortest turn slowly)
+            finer = self._estimate_at(frames, b // 2, readout_s, **kw)
+            if finer.trusted:
+                finer.signal += "+finer"
+                return finer
         return res
 
     def _estimate_at(self, frames: Any, binning: int, readout_s: float,

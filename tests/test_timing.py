@@ -14,6 +14,7 @@ from wavealt.io import (
     read_clip,
     read_frame_times,
     read_frames_folder,
+    read_video,
     regular_runs,
     write_png,
     write_video,
@@ -63,6 +64,13 @@ def test_video_times_are_its_timestamps(tmp_path) -> None:
     forced = read_clip(path, fps=15.0, force_fps=True)
     np.testing.assert_allclose(forced.times_s, np.arange(12) / 15.0)
     assert forced.timing == "fps"
+    # a video's frames stay 8-bit as decoded (a quarter of a float copy); read_video's are
+    # the same values as floats
+    assert clip.frames.dtype == np.uint8 and forced.frames.dtype == np.uint8
+    np.testing.assert_array_equal(forced.frames, clip.frames)
+    floats = read_video(path)
+    assert floats.dtype == np.float32
+    np.testing.assert_array_equal(np.rint(floats * 255.0).astype(np.uint8), clip.frames)
 
 
 def test_folder_timing_and_its_errors(tmp_path) -> None:

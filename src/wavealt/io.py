@@ -218,7 +218,9 @@ def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray
 
     Frames are decoded one at a time (streaming); ``max_frames`` stops early.
     """
-    return _decode(path, max_frames=max_frames)[0].astype(np.float32) / np.float32(255.0)
+    frames = _decode(path, max_frames=max_frames)[0].astype(np.float32)
+    frames /= np.float32(255.0)  # in place: one float copy of the clip, not two
+    return frames
 
 
 def read_video_timed(path: Path | str, *,

@@ -215,8 +215,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         -------
         DispersionResult
         """
-        shape = np.shape(frames)
-        b = working_bin(shape[1], shape[2], self.working_px) if len(shape) >= 3 else 1
+        frames = np.asarray(frames)  # once: a list is not converted again for each try
+        b = working_bin(*frames.shape[1:3], self.working_px) if frames.ndim >= 3 else 1
         kw = {"fps": fps, "focal_px": focal_px, "velocity_mps": velocity_mps,
               "velocity_sigma_mps": velocity_sigma_mps}
         res = self._estimate_at(frames, b, readout_s, **kw)
@@ -229,11 +229,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                 return finer
         return res
 
-    def _estimate_at(self, frames: Any, binning: int, readout_s: float,
+    def _estimate_at(self, frames: np.ndarray, binning: int, readout_s: float,
                      **kw: Any) -> DispersionResult:
         """:meth:`_estimate` of ``frames`` binned ``binning`` px a side, read in ``readout_s``."""
-        shape = np.shape(frames)
-        token = set_rolling(readout_s, kw["fps"], shape[1] // binning if len(shape) >= 3 else 1)
+        rows = frames.shape[1] // binning if frames.ndim >= 3 else 1
+        token = set_rolling(readout_s, kw["fps"], rows)
         try:
             with _one_blas_thread():
                 return self._estimate(frames, binning=binning, **kw)

@@ -52,7 +52,10 @@ Every result carries a trust decision (:meth:`DispersionAltimeter._judge`): the 
 peak must stand out of what random phase steps would give (significance), be prominent in
 the altitude scan (quality; blind, its prominence must also exceed five standard
 deviations of the profile's noise), have a 3-sigma interval within 10 % of the altitude,
-and lie inside the altitude range searched.  The uncertainty is the spread of the peak
+and lie inside the altitude range searched; and the waves must explain the clip's motion
+better than a still pattern carried rigidly across the image (phase steps ``-kappa . u``
+with no dispersion) does, which with a velocity given otherwise makes a sharp peak where
+the shell crosses that line.  The uncertainty is the spread of the peak
 over bands of wavenumber (the true shell gives one altitude at every wavenumber; the
 optics' products do not) plus a systematic term: a floor; blind, at least a part of the
 stretch of the ridge that the peak does not beat by one standard error of its per-mode
@@ -72,7 +75,8 @@ frame.  The four corner tiles, each fitted alone, measure it: over a level sea a
 tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f / d_z)^1.5`` at
 pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles' altitudes
 fit that model significantly better than one scale, the frames are levelled at the tilt
-(:class:`wavealt.camera.NadirView`) and fitted again, and the result records the attitude.
+(:class:`wavealt.camera.NadirView`, :mod:`.levelling`) and fitted again, and the result
+records the attitude.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt
 toward the other side (nor any tilt where no tile holds them alone), and with the attitude
 unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those

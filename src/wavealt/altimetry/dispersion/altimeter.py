@@ -9,10 +9,7 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_frames
-from wavealt.altimetry.dispersion.attitude import fit_tilt, roll_pitch
 from wavealt.altimetry.dispersion.constants import (
-    ATTITUDE_LEVEL,
-    ATTITUDE_PASSES,
     ATTITUDES,
     BLIND_MAP_KAPPA,
     BLOCK_CODED_MIN_EXCESS,
@@ -32,6 +29,7 @@ from wavealt.altimetry.dispersion.constants import (
     WORKING_PX,
 )
 from wavealt.altimetry.dispersion.kernel import _one_blas_thread, use_compiled  # noqa: F401
+from wavealt.altimetry.dispersion.levelling import _Level
 from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
@@ -39,11 +37,11 @@ from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, bin_frame
 from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
-from wavealt.altimetry.dispersion.trust import _Trust, tile_scatter
+from wavealt.altimetry.dispersion.trust import _Trust
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
-class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
+class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Level):
     """Altitude, its uncertainty and the water's velocity from frames, by wave dispersion.
 
     Parameters
@@ -278,10 +276,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
+        fit_focal = focal_px  # of the view fitted (a levelled view's own)
         wanted = self._distrust(res) is None if level else self._holds_shell(res)
         fits = self._tile_fits(signal, res, fps, focal_px, p) if wanted else []
         if not level:
-            res, fits = self._level(arr, fps, focal_px, prior, res, fits, lattice)
+            res, fits, p, fit_focal = self._level(arr, fps, focal_px, prior, res, fits, p,
+                                                  lattice)
             if res.attitude_deg is None:
                 res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
                               or res.reason)
@@ -289,67 +289,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust):
                     else "prior" if velocity_sigma_mps > 0 else "exact")
         if self._distrust(res) is None:
             res.reason = self._tile_verdict(fits, res)
+        if self._distrust(res) is None and "+carried" not in res.signal:
+            res.reason = self._rigid_verdict(p, res, fps, fit_focal)
         res.signal += f"+binned{binning}" if binning > 1 else ""
         return self._judge(res)
-
-    def _level(self, arr: np.ndarray, fps: float, focal_px: float,
-               prior: tuple[float, float, float] | None, res: DispersionResult,
-               fits: list[tuple[float, float, float, float]], lattice: int = BLOCK_PERIOD_PX
-               ) -> tuple[DispersionResult, list[tuple[float, float, float, float]]]:
-        """The fit of frames ``arr`` levelled at the tilt their corner tiles show, and its
-        tiles; ``res`` and its tiles ``fits`` where they show none.
-
-        A tilted camera sees the sea at a scale that changes across the frame
-        (:mod:`.attitude`), which the fit, made for one scale, reads as an average of them
-        (high) and as a smeared shell.  Where the tiles' altitudes fit the tilted model
-        significantly better than the level one (``ATTITUDE_LEVEL``), the frames are turned
-        to the view of a level camera at the tilt measured (:class:`wavealt.camera.NadirView`
-        of a pinhole centred on the frame) and fitted again, and the levelled view's own
-        tiles measure what tilt is left, up to ``ATTITUDE_PASSES`` times.  A levelled fit
-        that holds no shell's peak, or a tilt beyond ``camera.MAX_TILT_DEG``, ends the
-        passes.  The tilt's uncertainty joins the levelled fit's: the focal length of the
-        level view is ``f cos(tilt)``, and where the tiles are not placed and weighted
-        symmetrically their mean moves with the tilt (:meth:`.attitude.TiltFit.extra_var_log`).
-        The tilted model is kept only where the levelled view's tiles then read one scale
-        (at least two, their scatter within their noise at ``ATTITUDE_LEVEL``,
-        :func:`~.trust.tile_scatter`): a tilt that one tile's wrong peak made does not
-        level the frames, and those are judged as given (``docs/dispersion.md``).
-        """
-        from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
-
-        h, w = arr.shape[1:3]
-        given = res, fits
-        focal, rot, made = focal_px, np.eye(3), None
-        for _ in range(ATTITUDE_PASSES):
-            step = fit_tilt(fits, focal)
-            if (step is None or not step.significant(ATTITUDE_LEVEL)
-                    or step.tilt_deg > MAX_TILT_DEG):
-                break
-            turned = tilt_rotation(*step.roll_pitch_deg) @ rot
-            roll, pitch = roll_pitch(turned)
-            if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
-                break
-            view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
-            new, signal, p = self._fit(view(arr), fps, view.focal_px, prior, lattice)
-            if not self._holds_shell(new):
-                break
-            rot, res, focal, made = turned, new, view.focal_px, step
-            res.signal += "+levelled"
-            res.attitude_deg = (roll, pitch)
-            fits = self._tile_fits(signal, res, fps, focal, p)
-        if made is None:
-            return res, fits
-        if len(fits) < 2 or tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0:
-            # the levelled view's tiles do not read one scale either: the tilt measured was
-            # not the frames' (one tile's peak off the shell, its sigma too small) and the
-            # frames are judged as given
-            return given
-        last = fit_tilt(fits, focal) or made
-        theta = math.acos(min(float(rot[2, 2]), 1.0))
-        var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
-        res.altitude_std_m = res.altitude_m * math.sqrt(
-            (res.altitude_std_m / res.altitude_m) ** 2 + var)
-        return res, fits
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
              prior: tuple[float, float, float] | None, lattice: int = BLOCK_PERIOD_PX

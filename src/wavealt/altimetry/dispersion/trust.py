@@ -18,7 +18,9 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_PRIOR_SD_DEG,
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
+    BLIND_MAX_SPEED_MPS,
     BLIND_SD_FLOOR_LOG,
+    CARRIED_MAP_PEAKS,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
     GROUP_PEAK_WITHIN_LOG,
@@ -28,6 +30,7 @@ from wavealt.altimetry.dispersion.constants import (
     PAIRED_BAND_SD_FRACTION,
     PROFILE_PROMINENCE,
     RESOLUTION_FRACTION,
+    RIGID_MAX_RATIO,
     SCAN_PROMINENCE,
     SD_FLOOR_LOG,
     TILE_AGREEMENT_SIGMAS,
@@ -212,6 +215,40 @@ class _Trust:
         if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
             return "at the edge of the altitude range searched"
         return res.reason
+
+    def _rigid_verdict(self, p: dict[str, Any] | None, res: DispersionResult, fps: float,
+                       focal_px: float) -> str | None:
+        """Why a fit that passes the other trust tests may not be trusted because a pattern
+        carried rigidly across the image (no dispersion) explains the clip's motion at least
+        as well as the waves do; None where the waves explain more.
+
+        The waves' evidence is the phase steps' dependence on the wavenumber through the
+        dispersion relation; a still texture translated across the image (one frame moved
+        by the camera, frozen waves, floating matter alone) puts every mode on a line of
+        phase steps ``-kappa . u``, and with a velocity given, a shell that crosses that line
+        makes a sharp, significant, prominent peak at an altitude the clip does not measure.
+        The line's best score over the image velocity (the velocity map's best peaks at
+        ``omega = 0``, as :meth:`_carried_velocity` finds foam) against the score of the
+        fit's own shell and velocity, on every mode of ``p``: at or above
+        ``RIGID_MAX_RATIO`` of it, the clip shows no dispersion that the line does not
+        explain as well.
+        """
+        if p is None:
+            return None
+        lo = self.altitude_range_m[0]
+        best = self._map_best_velocity(p, fps, focal_px, math.inf, None, CARRIED_MAP_PEAKS,
+                                       BLIND_MAX_SPEED_MPS * focal_px / (lo * fps), 0.005)
+        if best is None:
+            return None
+        scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame
+        vx, vy = res.camera_velocity_mps
+        shell = float(self._score(p, fps, focal_px, np.array([math.log(res.altitude_m)]),
+                                  np.array([vx * scale]), np.array([vy * scale]))[0])
+        ratio = float(best[0]) / max(shell, 1e-30)
+        if ratio < RIGID_MAX_RATIO:
+            return None
+        return (f"a still pattern carried across the image explains the motion as well as "
+                f"the waves ({ratio:.2f} of their score): no dispersion to measure")
 
     def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
                    focal_px: float, p: dict[str, Any] | None = None

@@ -1,0 +1,85 @@
+"""Levelling: a tilted camera's frames turned to the view of a level one at the tilt that
+their corner tiles measure, and fitted again (:mod:`.attitude` holds the model)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from wavealt.altimetry.dispersion.attitude import fit_tilt, roll_pitch
+from wavealt.altimetry.dispersion.constants import (
+    ATTITUDE_LEVEL,
+    ATTITUDE_PASSES,
+    BLOCK_PERIOD_PX,
+)
+from wavealt.altimetry.dispersion.result import DispersionResult
+from wavealt.altimetry.dispersion.trust import tile_scatter
+
+
+class _Level:
+    """The levelling pass of :class:`DispersionAltimeter` (uses ``_fit``, ``_holds_shell``
+    and ``_tile_fits``)."""
+
+    def _level(self, arr: np.ndarray, fps: float, focal_px: float,
+               prior: tuple[float, float, float] | None, res: DispersionResult,
+               fits: list[tuple[float, float, float, float]], p: dict[str, Any] | None,
+               lattice: int = BLOCK_PERIOD_PX
+               ) -> tuple[DispersionResult, list[tuple[float, float, float, float]],
+                          dict[str, Any] | None, float]:
+        """The fit of frames ``arr`` levelled at the tilt their corner tiles show, its tiles,
+        periodogram and focal length; ``res``, ``fits``, ``p`` and ``focal_px`` where they
+        show none.
+
+        A tilted camera sees the sea at a scale that changes across the frame
+        (:mod:`.attitude`), which the fit, made for one scale, reads as an average of them
+        (high) and as a smeared shell.  Where the tiles' altitudes fit the tilted model
+        significantly better than the level one (``ATTITUDE_LEVEL``), the frames are turned
+        to the view of a level camera at the tilt measured (:class:`wavealt.camera.NadirView`
+        of a pinhole centred on the frame) and fitted again, and the levelled view's own
+        tiles measure what tilt is left, up to ``ATTITUDE_PASSES`` times.  A levelled fit
+        that holds no shell's peak, or a tilt beyond ``camera.MAX_TILT_DEG``, ends the
+        passes.  The tilt's uncertainty joins the levelled fit's: the focal length of the
+        level view is ``f cos(tilt)``, and where the tiles are not placed and weighted
+        symmetrically their mean moves with the tilt (:meth:`.attitude.TiltFit.extra_var_log`).
+        The tilted model is kept only where the levelled view's tiles then read one scale
+        (at least two, their scatter within their noise at ``ATTITUDE_LEVEL``,
+        :func:`~.trust.tile_scatter`): a tilt that one tile's wrong peak made does not
+        level the frames, and those are judged as given (``docs/dispersion.md``).
+        """
+        from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
+
+        h, w = arr.shape[1:3]
+        given = res, fits, p, focal_px
+        focal, rot, made = focal_px, np.eye(3), None
+        for _ in range(ATTITUDE_PASSES):
+            step = fit_tilt(fits, focal)
+            if (step is None or not step.significant(ATTITUDE_LEVEL)
+                    or step.tilt_deg > MAX_TILT_DEG):
+                break
+            turned = tilt_rotation(*step.roll_pitch_deg) @ rot
+            roll, pitch = roll_pitch(turned)
+            if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
+                break
+            view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
+            new, signal, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
+            if not self._holds_shell(new):
+                break
+            rot, res, focal, made, p = turned, new, view.focal_px, step, p_new
+            res.signal += "+levelled"
+            res.attitude_deg = (roll, pitch)
+            fits = self._tile_fits(signal, res, fps, focal, p)
+        if made is None:
+            return res, fits, p, focal
+        if len(fits) < 2 or tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0:
+            # the levelled view's tiles do not read one scale either: the tilt measured was
+            # not the frames' (one tile's peak off the shell, its sigma too small) and the
+            # frames are judged as given
+            return given
+        last = fit_tilt(fits, focal) or made
+        theta = math.acos(min(float(rot[2, 2]), 1.0))
+        var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
+        res.altitude_std_m = res.altitude_m * math.sqrt(
+            (res.altitude_std_m / res.altitude_m) ** 2 + var)
+        return res, fits, p, focal

@@ -77,23 +77,26 @@ def test_frozen_waves_are_never_trusted(mode: str) -> None:
     assert not res.trusted
 
 
-@pytest.mark.parametrize("mode", ["exact", "blind"])
+@pytest.mark.parametrize("mode", ["exact", "prior", "blind"])
 @pytest.mark.parametrize(("shift", "h", "frames"), [((1, 0), 5.0, 30), ((2, 1), 5.0, 30),
                                                     ((1, 0), 10.0, 10), ((2, 1), 5.0, 10),
-                                                    ((1, 3), 5.0, 10)])
+                                                    ((1, 3), 5.0, 10), ((1, 3), 10.0, 10)])
 def test_a_still_frame_carried_across_the_image_is_never_trusted(mode: str, shift, h: float,
                                                                  frames: int) -> None:
     """Advection without dispersion: one sea frame translated by whole pixels per frame.
     Given the velocity that moves it so at ``h``, a shell crossing the pattern's line of
-    phase steps made a sharp, prominent peak (10 frames: 7.6 m read for 10 m, 6.1 for 5)."""
+    phase steps made a sharp, prominent peak (10 frames: 7.6 m read for 10 m, 6.1 for 5;
+    with a prior of 0.3 m/s, 11.1 for 10)."""
     data, sc, cfg = _realistic(5.0, 0.0, 4, frames=30)
     still = data.clean[0]
     clip = np.stack([np.roll(still, (t * shift[1], t * shift[0]), axis=(0, 1))
                      for t in range(frames)])
     # the camera's velocity that makes the pattern move so at altitude h
     v = (-shift[0] * cfg.fps * h / cfg.focal_px, -shift[1] * cfg.fps * h / cfg.focal_px)
-    kw = {"velocity_mps": v} if mode == "exact" else {}
+    kw = ({} if mode == "blind" else
+          {"velocity_mps": v, "velocity_sigma_mps": 0.3 if mode == "prior" else 0.0})
     res = DispersionAltimeter().estimate(clip, fps=cfg.fps, focal_px=cfg.focal_px, **kw)
+    assert res.mode == mode
     assert not res.trusted
     assert isinstance(res.reason, str) and res.reason
 

@@ -290,7 +290,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if self._distrust(res) is None:
             res.reason = self._tile_verdict(fits, res)
         if self._distrust(res) is None and "+carried" not in res.signal:
-            res.reason = self._rigid_verdict(p, res, fps, fit_focal)
+            res.reason = self._rigid_verdict(p and p.get("_fitted", p), res, fps, fit_focal)
         res.signal += f"+binned{binning}" if binning > 1 else ""
         return self._judge(res)
 
@@ -355,11 +355,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                 # A fast drift carries the water across a corner tile within the clip (3 m/s
                 # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer.
                 # Realistic preset, 30 frames, 2.9 m at 2.9 m/s: +593 % flagged -> +0.3 %.
-                alt = self._aided(self._periodogram(signal, corners=False), t, fps, focal_px,
-                                  prior[:2])
+                whole = self._periodogram(signal, corners=False)
+                alt = self._aided(whole, t, fps, focal_px, prior[:2])
                 if alt.quality > res.quality:
                     res = alt
                     res.signal = "full"
+                    p["_fitted"] = whole  # the periodogram the result is made of
             return res
         use_compiled()  # the prior's and the blind searches score many candidates
         if prior is not None:

@@ -278,6 +278,20 @@ class _Profile(_VelocityMap):
             return True
         return False
 
+    def _best_line(self, p: dict[str, Any], fps: float,
+                   focal_px: float) -> tuple[float, np.ndarray] | None:
+        """The score and image velocity (px/frame) of the best line of phase steps
+        ``-kappa . u`` (no wave term: a pattern carried without dispersion) on every mode of
+        ``p``, the velocity map's ``CARRIED_MAP_PEAKS`` best peaks refined; None where the
+        map has none.  Cached in ``p``: the foam's removal and the trust test share it."""
+        if "_line" not in p:
+            lo = self.altitude_range_m[0]
+            p["_line"] = self._map_best_velocity(p, fps, focal_px, math.inf, None,
+                                                 CARRIED_MAP_PEAKS,
+                                                 BLIND_MAX_SPEED_MPS * focal_px / (lo * fps),
+                                                 0.005)
+        return p["_line"]
+
     def _carried_velocity(self, p: dict[str, Any], fps: float,
                           focal_px: float) -> tuple[np.ndarray, float]:
         """The image velocity (px/frame, the table's convention) of the strongest pattern
@@ -292,9 +306,7 @@ class _Profile(_VelocityMap):
         steps crosses the wave shell, where a band of modes that the waves fill wholly
         makes a high score while most modes hold nothing there (``CARRIED_MIN_RATIO``).
         """
-        lo = self.altitude_range_m[0]
-        best = self._map_best_velocity(p, fps, focal_px, math.inf, None, CARRIED_MAP_PEAKS,
-                                       BLIND_MAX_SPEED_MPS * focal_px / (lo * fps), 0.005)
+        best = self._best_line(p, fps, focal_px)
         if best is None:
             return np.zeros(2), 0.0
         u = best[1]

@@ -18,9 +18,7 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_PRIOR_SD_DEG,
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
-    BLIND_MAX_SPEED_MPS,
     BLIND_SD_FLOOR_LOG,
-    CARRIED_MAP_PEAKS,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
     GROUP_PEAK_WITHIN_LOG,
@@ -227,17 +225,15 @@ class _Trust:
         by the camera, frozen waves, floating matter alone) puts every mode on a line of
         phase steps ``-kappa . u``, and with a velocity given, a shell that crosses that line
         makes a sharp, significant, prominent peak at an altitude the clip does not measure.
-        The line's best score over the image velocity (the velocity map's best peaks at
-        ``omega = 0``, as :meth:`_carried_velocity` finds foam) against the score of the
+        The line's best score over the image velocity (:meth:`_best_line`, as
+        :meth:`_carried_velocity` finds foam) against the score of the
         fit's own shell and velocity, on every mode of ``p``: at or above
         ``RIGID_MAX_RATIO`` of it, the clip shows no dispersion that the line does not
         explain as well.
         """
         if p is None:
             return None
-        lo = self.altitude_range_m[0]
-        best = self._map_best_velocity(p, fps, focal_px, math.inf, None, CARRIED_MAP_PEAKS,
-                                       BLIND_MAX_SPEED_MPS * focal_px / (lo * fps), 0.005)
+        best = self._best_line(p, fps, focal_px)
         if best is None:
             return None
         scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame

@@ -26,6 +26,7 @@ QUICK_ARGS: dict[str, list[str]] = {
     # six sequences of one seed per row; no cache, so ``make bench`` leaves no frames behind
     "dispersion": ["--quick", "--no-cache"],
     "foreign_sea": ["--clips", "4"],
+    "nulls": ["--clips", "4"],
     "realistic": ["--size", "128", "--sequences", "2"],
     "scale": ["--sequences", "4", "--size", "64", "--repeats", "1"],
     "simulate": ["--sequences", "4"],

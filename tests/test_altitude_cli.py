@@ -187,6 +187,9 @@ def test_video_roundtrip_and_windows(tmp_path, run_cli, frames) -> None:
      "--readout-ms must be a finite number >= 0; got -5.0"),
     (["--fps", "30", "--focal-px", "50", "--readout-ms", "50"],
      "readout_s 0.05 s is longer than a frame interval at 30 fps"),
+    (["--fps", "30", "--focal-px", "50", "--yaw-rate-dps", "500"],
+     "--yaw-rate-dps must be a number within +-180; got 500.0"),
+    (["--fps", "30", "--focal-px", "50", "--yaw-rate-dps", "nan"], "--yaw-rate-dps"),
 ])
 def test_bad_arguments(tmp_path, run_cli, frames, argv_tail, match) -> None:
     write_frames_folder(tmp_path / "f", frames[0])
@@ -227,5 +230,24 @@ def test_a_readout_time_reaches_the_altimeter(tmp_path, run_cli, frames) -> None
         readout_s=0.02)
     plain = DispersionAltimeter(dispersion="gravity").estimate(
         read_input(tmp_path / "f"), fps=30.0, focal_px=focal_px, velocity_mps=(0.2, 0.0))
+    assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
+    assert direct.altitude_m != plain.altitude_m
+
+
+def test_a_yaw_rate_reaches_the_altimeter(tmp_path, run_cli, frames) -> None:
+    """``--yaw-rate-dps`` is the altimeter's ``yaw_rate_dps``: the same window, the same
+    altitude as the call made directly, and not the one without it."""
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+
+    clip, focal_px = frames
+    write_frames_folder(tmp_path / "f", clip)
+    code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30", "--focal-px",
+                              str(focal_px), "--json", "--window", "12", "--dispersion",
+                              "gravity", "--velocity-mps", "0.2,0", "--yaw-rate-dps", "20"])
+    assert code == 0, err
+    kw = {"fps": 30.0, "focal_px": focal_px, "velocity_mps": (0.2, 0.0)}
+    est = DispersionAltimeter(dispersion="gravity")
+    direct = est.estimate(read_input(tmp_path / "f"), yaw_rate_dps=20.0, **kw)
+    plain = est.estimate(read_input(tmp_path / "f"), **kw)
     assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
     assert direct.altitude_m != plain.altitude_m

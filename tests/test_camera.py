@@ -41,3 +41,40 @@ def test_bad_camera(kw, match):
 def test_bad_fov(fov):
     with pytest.raises(ValueError, match="fov_deg"):
         focal_px_from_fov(64, fov)
+
+
+def test_unturn_yaw_puts_every_frame_where_the_middle_one_sees_the_sea() -> None:
+    """A point on the sea, placed in each frame where a yawing camera sees it (through the
+    link's own NED-to-image axes, :func:`ned_to_image`), lands where the middle frame shows
+    it; the other sign of the rate sends it away."""
+    from wavealt.camera import unturn_yaw
+    from wavealt.live.mavlink import ned_to_image
+
+    size, fps, rate = 81, 10.0, 40.0  # 4 degrees a frame, nose turning right
+    c = (size - 1) / 2
+    yy, xx = np.mgrid[0:size, 0:size].astype(float)
+    point_ned = (-12.0, 25.0, 0.0)  # behind and right of the camera, px on the sea
+    frames = []
+    for t in range(5):
+        yaw = math.radians(rate * (t - 2) / fps)
+        x, y = ned_to_image(point_ned, yaw)
+        frames.append(np.exp(-((xx - c - x) ** 2 + (yy - c - y) ** 2) / 6.0))
+    frames = np.stack(frames).astype(np.float32)
+    middle = np.unravel_index(np.argmax(frames[2]), frames[2].shape)
+    assert max(np.hypot(*np.subtract(np.unravel_index(np.argmax(f), f.shape), middle))
+               for f in frames) > 3.0  # the point moves in the frames as taken
+    for f in unturn_yaw(frames, rate, fps):
+        assert np.unravel_index(np.argmax(f), f.shape) == middle
+    wrong = unturn_yaw(frames, -rate, fps)
+    assert np.unravel_index(np.argmax(wrong[0]), wrong[0].shape) != middle
+    gray_u8 = (255 * frames).astype(np.uint8)
+    assert unturn_yaw(gray_u8, 0.0, fps).tobytes() == gray_u8.tobytes()
+
+
+@pytest.mark.parametrize(("rate", "fps", "match"), [
+    (200.0, 30.0, "yaw_rate_dps"), (float("nan"), 30.0, "yaw_rate_dps"), (10.0, 0.0, "fps")])
+def test_unturn_yaw_refuses_bad_rates(rate, fps, match) -> None:
+    from wavealt.camera import unturn_yaw
+
+    with pytest.raises(ValueError, match=match):
+        unturn_yaw(np.zeros((3, 16, 16), np.float32), rate, fps)

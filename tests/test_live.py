@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import signal
 import subprocess
@@ -152,7 +153,7 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
         while not stop.is_set():
             if autopilot.recv_match(blocking=True, timeout=0.05) is not None:
                 autopilot.mav.local_position_ned_send(0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0)
-                autopilot.mav.attitude_send(0, 0.1, -0.05, 0.0, 0.0, 0.0, 0.0)
+                autopilot.mav.attitude_send(0, 0.1, -0.05, 0.0, 0.0, 0.0, 0.1)
 
     thread = threading.Thread(target=vehicle, daemon=True)
     thread.start()
@@ -175,6 +176,9 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     assert json.dumps(modes).count("prior") >= 5
     # levelled with the vehicle's attitude once heard (rounded to the view cache's 0.5 deg)
     assert (float(rows[-1]["roll_deg"]), float(rows[-1]["pitch_deg"])) == (5.5, -3.0)
+    # and turned back at its yaw rate (ATTITUDE's yawspeed, 0.1 rad/s)
+    assert float(rows[0]["yaw_rate_dps"]) == 0.0
+    assert float(rows[-1]["yaw_rate_dps"]) == pytest.approx(math.degrees(0.1))
 
 
 def test_a_pipe_on_standard_input_is_read_live(tmp_path) -> None:

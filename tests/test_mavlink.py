@@ -103,6 +103,12 @@ def test_link_sends_heartbeat_and_distance_and_hears_the_vehicle() -> None:
             v = link.camera_velocity_mps()
             time.sleep(0.02)
         assert v == pytest.approx((-3.0, 0.0), abs=1e-6)  # north at 3 m/s, heading east
+        assert link.state.yaw_rate_rad_s == pytest.approx(0.0)
+        autopilot.mav.attitude_send(1100, 0.0, 0.0, math.pi / 2, 0.0, 0.0, 0.25)
+        deadline = time.monotonic() + 3.0
+        while link.poll().yaw_rate_rad_s != pytest.approx(0.25) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert link.state.yaw_rate_rad_s == pytest.approx(0.25)  # ATTITUDE's yawspeed
     finally:
         link.close()
         autopilot.close()

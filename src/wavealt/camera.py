@@ -385,3 +385,41 @@ def read_attitude(path: str | Path, times_s: np.ndarray) -> tuple[np.ndarray, np
     if rows.shape[0] == 1:
         return np.full(times_s.shape, rows[0, 1]), np.full(times_s.shape, rows[0, 2])
     return np.interp(times_s, t, rows[:, 1]), np.interp(times_s, t, rows[:, 2])
+
+
+#: The fastest yaw the altimeter turns back, degrees per second (a multirotor's yaw rate
+#: limit is typically 90-200 deg/s; at more the frames' corners turn out of view within
+#: a second of clip).
+MAX_YAW_RATE_DPS = 180.0
+
+
+def unturn_yaw(frames: np.ndarray, yaw_rate_dps: float, fps: float) -> np.ndarray:
+    """Frames of a camera looking straight down while it yaws at ``yaw_rate_dps``, turned
+    back to the orientation of the clip's middle frame, about the image centre.
+
+    The camera is mounted as :func:`tilt_rotation` says (top of the image toward the nose,
+    +x columns the vehicle's right); the rate is the vehicle's yaw rate, positive turning
+    the nose right (clockwise seen from above; MAVLink's ``ATTITUDE.yawspeed``).  A turn
+    of the nose by ``d`` moves the scene point at ``(x, y)`` from the centre (y down) to
+    ``(x cos d + y sin d, -x sin d + y cos d)``: frame ``t`` is sampled there with
+    ``d = rate (t - t_mid) / fps`` (bilinear, OpenCV), so that every frame shows the sea
+    where the middle frame does.  Near the corners the sea turns out of view: those pixels
+    mirror the frame's edge (what no frame saw).  ``(T, H, W[, 3])`` in, the same out.
+    """
+    import cv2  # deferred: only for a yawing camera
+
+    check_finite_number("yaw_rate_dps", yaw_rate_dps, low=-MAX_YAW_RATE_DPS,
+                        high=MAX_YAW_RATE_DPS)
+    fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+    t, h, w = frames.shape[:3]
+    cx, cy = (w - 1) / 2.0, (h - 1) / 2.0
+    out = np.empty_like(frames)
+    for i in range(t):
+        d = math.radians(yaw_rate_dps * (i - (t - 1) / 2.0) / fps)
+        c, s = math.cos(d), math.sin(d)
+        # out(x, y) = frame(c x + s y, -s x + c y), coordinates from the centre
+        m = np.array([[c, s, cx - c * cx - s * cy], [-s, c, cy + s * cx - c * cy]])
+        out[i] = cv2.warpAffine(frames[i], m, (w, h),
+                                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                                borderMode=cv2.BORDER_REFLECT_101)
+    return out

@@ -84,6 +84,11 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "over it (a drone camera's is typically 10-30 ms; see its sensor's data). "
                    "A row read later sees the sea carried further; given, the fit undoes it.  "
                    "[default: a global shutter]")
+@click.option("--yaw-rate-dps", type=float, default=None, metavar="DPS",
+              help="The camera's yaw rate, deg/s, positive turning the image top (the nose) "
+                   "right, as a steady turn over the input; each window's frames are turned "
+                   "back to its middle frame's orientation.  With --tilt-from-vehicle, live, "
+                   "the vehicle's own ATTITUDE yawspeed is taken.  [default: 0]")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: altitude_m, altitude_std_m (1 sigma), trusted, reason "
                    "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "
@@ -106,8 +111,9 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
              focal_px: float | None, fov_deg: float | None, calibration: Path | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
-             velocity_sigma_mps: float | None, readout_ms: float | None, as_json: bool,
-             out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
+             velocity_sigma_mps: float | None, readout_ms: float | None,
+             yaw_rate_dps: float | None, as_json: bool, out: Path | None, force: bool,
+             mavlink: str | None, mavlink_range: str) -> None:
     """Altitude from a folder of frames, a video file or a live stream, by the wave
     dispersion relation.
 
@@ -150,6 +156,13 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         msg = f"--readout-ms must be a finite number >= 0; got {readout_ms!r}"
         raise ValueError(msg)
     readout_s = (readout_ms or 0.0) / 1000.0
+    if yaw_rate_dps is not None:
+        from wavealt.camera import MAX_YAW_RATE_DPS
+
+        if not (math.isfinite(yaw_rate_dps) and abs(yaw_rate_dps) <= MAX_YAW_RATE_DPS):
+            msg = (f"--yaw-rate-dps must be a number within +-{MAX_YAW_RATE_DPS:g}; "
+                   f"got {yaw_rate_dps!r}")
+            raise ValueError(msg)
     if live is not None:
         if dispersion == "auto":
             dispersion = "gravity-capillary"
@@ -158,6 +171,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
                        dispersion=dispersion, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
+                       yaw_rate_dps=yaw_rate_dps or 0.0,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
@@ -188,7 +202,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             dispersion=dispersion, attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
-            on_window=link.send_altitude if link is not None else None)
+            yaw_rate_dps=yaw_rate_dps or 0.0, on_window=link.send_altitude if link is not None else None)
     finally:
         if link is not None:
             link.close()
@@ -223,12 +237,13 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
-                   readout_s: float,
+                   readout_s: float, yaw_rate_dps: float,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
     from wavealt.altimetry.dispersion import DispersionAltimeter, warm_up
+    from wavealt.camera import MAX_YAW_RATE_DPS as MAX_YAW
     from wavealt.camera import NadirView, read_calibration
     from wavealt.io import check_output_folder
     from wavealt.live import LIVE_FILE, run_live
@@ -276,12 +291,15 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     def estimate(frames: np.ndarray, fps: float) -> dict[str, Any]:
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
         known = (roll_deg, pitch_deg) != (None, None)
-        vel, sd = velocity, sigma or 0.0
+        vel, sd, yaw = velocity, sigma or 0.0, yaw_rate_dps
         if link is not None:
             state = link.poll()
             if tilt_from_vehicle and state.attitude_rad is not None:
                 roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
                 known = True
+            if tilt_from_vehicle and state.yaw_rate_rad_s is not None:
+                # a spin past the altimeter's reach is turned back as far as it goes
+                yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
             if velocity_from_vehicle:
                 vel = link.camera_velocity_mps()
         roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
@@ -290,9 +308,11 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
             frames, f = view(frames), view.focal_px
         res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
                                   velocity_sigma_mps=sd if vel is not None else 0.0,
-                                  readout_s=readout_s).to_dict()
+                                  readout_s=readout_s,
+                                  yaw_rate_dps=yaw).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
+        res["yaw_rate_dps"] = yaw
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

@@ -42,11 +42,13 @@ class VehicleState:
     """The latest vehicle state heard on the link (None until heard).
 
     ``velocity_ned_mps``: (north, east, down) over ground; ``attitude_rad``: (roll, pitch,
-    yaw); ``*_time``: ``time.monotonic()`` when each was received.
+    yaw); ``yaw_rate_rad_s``: the yaw rate (positive nose right); ``*_time``:
+    ``time.monotonic()`` when each was received.
     """
 
     velocity_ned_mps: tuple[float, float, float] | None = None
     attitude_rad: tuple[float, float, float] | None = None
+    yaw_rate_rad_s: float | None = None
     velocity_time: float = field(default=-math.inf)
     attitude_time: float = field(default=-math.inf)
 
@@ -155,6 +157,7 @@ class MavlinkLink:
                 self.state.velocity_time = now
             elif kind == "ATTITUDE":
                 self.state.attitude_rad = (msg.roll, msg.pitch, msg.yaw)
+                self.state.yaw_rate_rad_s = msg.yawspeed
                 self.state.attitude_time = now
         return self.state
 

@@ -31,7 +31,7 @@ from wavealt.io import regular_runs
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
                 "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
-                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg")
+                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "yaw_rate_dps")
 LIVE_FILE = "live.csv"
 #: The summary's latency median and p90 are over at most this many of the newest estimates.
 LATENCY_WINDOW = 10000
@@ -211,7 +211,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                    "quality": res["quality"], "mode": res["mode"], "frames": len(items),
                    "fps": round(float(fps), 3), "latency_ms": round(1e3 * latency, 1),
                    "dropped_frames": reader.stats.dropped,
-                   "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", "")}
+                   "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", ""),
+                   "yaw_rate_dps": res.get("yaw_rate_dps", "")}
             if writer is not None:
                 writer.writerow(row)
                 fh.flush()

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_frames
+from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDES,
     BLIND_MAP_KAPPA,
@@ -180,7 +181,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
                  velocity_mps: tuple[float, float] | None = None,
-                 velocity_sigma_mps: float = 0.0, readout_s: float = 0.0) -> DispersionResult:
+                 velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
+                 yaw_rate_dps: float = 0.0) -> DispersionResult:
         """Estimate altitude, its uncertainty and the camera's velocity over the water.
 
         Three modes (``DispersionResult.mode``): **blind** (no ``velocity_mps``: altitude and
@@ -208,6 +210,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             ``readout_s / rows`` apart (0: a global shutter).  At most one frame interval.
             A row read later sees the sea carried further; given, the fit is made again
             with each row's delay undone at the first fit's velocity.
+        yaw_rate_dps : float
+            The camera's yaw rate, degrees per second, positive turning the top of the
+            image (the vehicle's nose) right: the frames are turned back to the middle
+            frame's orientation first (:func:`wavealt.camera.unturn_yaw`), so the result's
+            velocity is in the middle frame's axes.  At most 180.
 
         Returns
         -------
@@ -216,7 +223,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         frames = np.asarray(frames)  # once: a list is not converted again for each try
         b = working_bin(*frames.shape[1:3], self.working_px) if frames.ndim >= 3 else 1
         kw = {"fps": fps, "focal_px": focal_px, "velocity_mps": velocity_mps,
-              "velocity_sigma_mps": velocity_sigma_mps}
+              "velocity_sigma_mps": velocity_sigma_mps, "yaw_rate_dps": yaw_rate_dps}
         res = self._estimate_at(frames, b, readout_s, **kw)
         if b > 1 and not res.trusted:
             # not measured at the working scale: frames binned half as much resolve waves
@@ -240,7 +247,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
                   velocity_mps: tuple[float, float] | None,
-                  velocity_sigma_mps: float = 0.0, binning: int = 1) -> DispersionResult:
+                  velocity_sigma_mps: float = 0.0, yaw_rate_dps: float = 0.0,
+                  binning: int = 1) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
@@ -260,6 +268,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
+        yaw_rate_dps = check_finite_number("yaw_rate_dps", yaw_rate_dps,
+                                           low=-MAX_YAW_RATE_DPS, high=MAX_YAW_RATE_DPS)
+        if yaw_rate_dps != 0.0:  # a yawing camera: every frame turned as the middle one
+            arr = unturn_yaw(arr, yaw_rate_dps, fps)
         if binning > 1:  # to the working scale (``working_px``)
             arr, focal_px = bin_frames(arr, binning), focal_px / binning
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
@@ -291,6 +303,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             res.reason = self._tile_verdict(fits, res)
         if self._distrust(res) is None and "+carried" not in res.signal:
             res.reason = self._rigid_verdict(p and p.get("_fitted", p), res, fps, fit_focal)
+        res.signal += "+unturned" if yaw_rate_dps != 0.0 else ""
         res.signal += f"+binned{binning}" if binning > 1 else ""
         return self._judge(res)
 
@@ -435,10 +448,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                       velocity_mps: tuple[float, float] | None = None,
                       velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
-                      **kw: Any) -> DispersionResult:
+                      yaw_rate_dps: float = 0.0, **kw: Any) -> DispersionResult:
     """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
-    velocity_mps=, velocity_sigma_mps=, readout_s=)``."""
+    velocity_mps=, velocity_sigma_mps=, readout_s=, yaw_rate_dps=)``."""
     return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,
                                               velocity_mps=velocity_mps,
                                               velocity_sigma_mps=velocity_sigma_mps,
-                                              readout_s=readout_s)
+                                              readout_s=readout_s, yaw_rate_dps=yaw_rate_dps)

@@ -27,6 +27,7 @@ QUICK_ARGS: dict[str, list[str]] = {
     "dispersion": ["--quick", "--no-cache"],
     "foreign_sea": ["--clips", "4"],
     "nulls": ["--clips", "4"],
+    "yaw": ["--sequences", "4"],
     "realistic": ["--size", "128", "--sequences", "2"],
     "scale": ["--sequences", "4", "--size", "64", "--repeats", "1"],
     "simulate": ["--sequences", "4"],

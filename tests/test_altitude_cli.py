@@ -214,40 +214,24 @@ def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
     assert code == 2 and "bad.mp4" in err
 
 
-def test_a_readout_time_reaches_the_altimeter(tmp_path, run_cli, frames) -> None:
-    """``--readout-ms`` is the altimeter's ``readout_s``: the same window, the same
-    altitude as the call made directly."""
+@pytest.mark.parametrize(("option", "kwarg"), [(("--readout-ms", "20"), {"readout_s": 0.02}),
+                                               (("--yaw-rate-dps", "20"), {"yaw_rate_dps": 20.0})])
+def test_a_camera_option_reaches_the_altimeter(tmp_path, run_cli, frames, option,
+                                                kwarg) -> None:
+    """``--readout-ms`` is the altimeter's ``readout_s``, ``--yaw-rate-dps`` its
+    ``yaw_rate_dps``: the same window, the same altitude as the call made directly, and not
+    the one without it."""
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
     clip, focal_px = frames
     write_frames_folder(tmp_path / "f", clip)
     code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30", "--focal-px",
                               str(focal_px), "--json", "--window", "12", "--dispersion",
-                              "gravity", "--velocity-mps", "0.2,0", "--readout-ms", "20"])
-    assert code == 0, err
-    direct = DispersionAltimeter(dispersion="gravity").estimate(
-        read_input(tmp_path / "f"), fps=30.0, focal_px=focal_px, velocity_mps=(0.2, 0.0),
-        readout_s=0.02)
-    plain = DispersionAltimeter(dispersion="gravity").estimate(
-        read_input(tmp_path / "f"), fps=30.0, focal_px=focal_px, velocity_mps=(0.2, 0.0))
-    assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
-    assert direct.altitude_m != plain.altitude_m
-
-
-def test_a_yaw_rate_reaches_the_altimeter(tmp_path, run_cli, frames) -> None:
-    """``--yaw-rate-dps`` is the altimeter's ``yaw_rate_dps``: the same window, the same
-    altitude as the call made directly, and not the one without it."""
-    from wavealt.altimetry.dispersion import DispersionAltimeter
-
-    clip, focal_px = frames
-    write_frames_folder(tmp_path / "f", clip)
-    code, out, err = run_cli(["altitude", str(tmp_path / "f"), "--fps", "30", "--focal-px",
-                              str(focal_px), "--json", "--window", "12", "--dispersion",
-                              "gravity", "--velocity-mps", "0.2,0", "--yaw-rate-dps", "20"])
+                              "gravity", "--velocity-mps", "0.2,0", *option])
     assert code == 0, err
     kw = {"fps": 30.0, "focal_px": focal_px, "velocity_mps": (0.2, 0.0)}
     est = DispersionAltimeter(dispersion="gravity")
-    direct = est.estimate(read_input(tmp_path / "f"), yaw_rate_dps=20.0, **kw)
+    direct = est.estimate(read_input(tmp_path / "f"), **kwarg, **kw)
     plain = est.estimate(read_input(tmp_path / "f"), **kw)
     assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
     assert direct.altitude_m != plain.altitude_m

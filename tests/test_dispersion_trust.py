@@ -450,26 +450,16 @@ def test_the_fit_and_its_tiles_disagree_at_most_at_the_agreement_bar_by_chance()
 
 
 def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.ndarray:
-    """The central ``side`` px of a camera whose nose turns right at ``rate_dps`` over rendered
-    ``frames`` (the sea in the middle frame's axes): each pixel samples the sea where the
-    middle frame sees the point that this frame sees there (the link's NED axes:
-    :func:`wavealt.live.mavlink.ned_to_image`)."""
-    import math
+    """``benchmarks/bench_yaw.py``'s yawing camera (written from MAVLink's axes, not from
+    :func:`wavealt.camera.unturn_yaw`)."""
+    import importlib.util
+    from pathlib import Path
 
-    import scipy.ndimage as ndi
-
-    t, h, w = frames.shape[:3]
-    yy, xx = np.mgrid[0:side, 0:side].astype(float)
-    right, forward = xx - (side - 1) / 2, (side - 1) / 2 - yy
-    out = []
-    for i in range(t):
-        d = math.radians(rate_dps * (i - (t - 1) / 2) / fps)
-        north = forward * math.cos(d) - right * math.sin(d)
-        east = forward * math.sin(d) + right * math.cos(d)
-        # the middle frame (heading 0) shows that point at (east, -north)
-        out.append(ndi.map_coordinates(frames[i], [(h - 1) / 2 - north, (w - 1) / 2 + east],
-                                       order=1, mode="reflect"))
-    return np.stack(out).astype(np.float32)
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_yaw.py"
+    spec = importlib.util.spec_from_file_location("bench_yaw", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.yawing_view(frames, rate_dps, fps, side)
 
 
 @pytest.mark.parametrize("rate", [15.0, 30.0])

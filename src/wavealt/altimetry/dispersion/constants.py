@@ -103,8 +103,9 @@ STATIC_NORM_FRACTION = 0.05
 #: (:meth:`~.trust._Trust._rigid_verdict`): the line then explains the motion as well as
 #: the waves, and the altitude is not measured.  The bar is the tie, not a tuned value;
 #: measured (tuning: second generator 1000-1059 / 2000-2059, realistic 101 / 202), the
-#: trusted fits of seas gave 0.12-0.63 blind and 0.27-0.99 exact (10 frames), a still
-#: second-generator frame moved 0-3 px a frame with its velocity given, 1.39-4.4.
+#: trusted fits of seas gave 0.12-0.63 blind and 0.27-0.99 exact (10 frames; one realistic
+#: window of 151 at 1.0, its foam as strong as its waves), a still second-generator frame
+#: moved 1-3 px a frame with its velocity given, 1.39-4.4.
 RIGID_MAX_RATIO = 1.0
 #: Least prominence of the blind profile's peak in standard deviations of the profile's
 #: score under random phase steps (the noise of the mean over the modes it is taken on):

@@ -12,9 +12,9 @@ import wavealt
 ROOT = Path(wavealt.__file__).parent
 #: Each top-level part of the package and its place in the pipeline: a module may import
 #: its own part or one placed lower, never one placed higher.
-RANK = {"__init__": 0, "_checks": 0, "io": 1, "camera": 1, "sim": 2, "dataset": 3,
-        "deglint": 4, "plots": 5, "altimetry": 5, "live": 6, "evaluation": 7, "report": 8,
-        "cli": 9, "__main__": 10}
+RANK = {"__init__": 0, "_checks": 0, "io": 1, "framesource": 1, "camera": 1, "sim": 2,
+        "dataset": 3, "deglint": 4, "plots": 5, "altimetry": 5, "live": 6, "evaluation": 7,
+        "report": 8, "cli": 9, "__main__": 10}
 MAX_LINES = 500
 
 

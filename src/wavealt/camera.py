@@ -309,21 +309,26 @@ class NadirView:
             self.calib.camera_matrix, self.calib.dist_coeffs, rot, self.camera_matrix,
             self.out_size, self._cv2.CV_16SC2)
 
-    def __call__(self, frames: np.ndarray) -> np.ndarray:
+    def __call__(self, frames: np.ndarray, first: int | None = None) -> np.ndarray:
         """The level, undistorted view of ``(T, H, W[, 3])`` frames (one attitude, or one
-        per frame), same dtype."""
+        per frame), same dtype.  ``first``: the frames are a window of the clip the
+        attitudes are of, starting at frame ``first`` (None: the whole clip)."""
         frames = np.asarray(frames)
         t, h, w = frames.shape[:3]
         if (w, h) != self.size:
             msg = f"frames are {w}x{h} px; this view was made for {self.size[0]}x{self.size[1]}"
             raise ValueError(msg)
-        if len(self.rotations) not in (1, t):
-            msg = f"{len(self.rotations)} attitudes for {t} frames"
+        n_rot = len(self.rotations)
+        if n_rot != 1 and (t != n_rot if first is None
+                           else not (0 <= first and first + t <= n_rot)):
+            where = f"{t} frames" if first is None else f"frames {first}-{first + t - 1}"
+            msg = f"{n_rot} attitudes for {where}"
             raise ValueError(msg)
+        first = first or 0
         out = np.empty((t, self.out_size[1], self.out_size[0], *frames.shape[3:]),
                        dtype=frames.dtype)
         for i in range(t):
-            m1, m2 = self._map or self._make_map(self.rotations[i])
+            m1, m2 = self._map or self._make_map(self.rotations[first + i])
             out[i] = self._cv2.remap(frames[i], m1, m2, self._cv2.INTER_LINEAR,
                                      borderMode=self._cv2.BORDER_REPLICATE)
         return out

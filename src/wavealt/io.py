@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from io import BytesIO
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 from natsort import natsorted
@@ -200,14 +200,14 @@ class Clip:
     """Frames and when they were taken.
 
     ``frames``: ``(T, H, W, 3)`` float32 in [0, 1] (a folder of images) or uint8 as decoded
-    (a video: a quarter of the memory, 0.19 GB a second of 1080-line video at 30 frames/s,
-    which the altimeter takes as it is); ``times_s``: ``(T,)`` seconds from the
-    first frame, strictly increasing; ``source_fps``: the rate the source records (a
-    video's timestamps, ``--fps`` or the CSV's median spacing); ``timing``: where the times
-    came from (``"timestamps"``, ``"fps"``, ``"csv"``).
+    (a video: :class:`wavealt.framesource.VideoFrames`, decoded window by window as
+    ``frames[a:b]`` asks, never whole; ``np.asarray`` decodes it all); ``times_s``:
+    ``(T,)`` seconds from the first frame, strictly increasing; ``source_fps``: the rate the
+    source records (a video's timestamps, ``--fps`` or the CSV's median spacing);
+    ``timing``: where the times came from (``"timestamps"``, ``"fps"``, ``"csv"``).
     """
 
-    frames: np.ndarray
+    frames: Any
     times_s: np.ndarray
     source_fps: float
     timing: str
@@ -353,10 +353,20 @@ def read_clip(path: Path | str, *, fps: float | None = None, frame_times: Path |
     if frame_times is not None:
         msg = "--frame-times is for frame folders; a video's frames carry their own timestamps"
         raise ValueError(msg)
+    from wavealt.framesource import VideoFrames, scan_video
+
+    times, n, height, width = scan_video(path)
     if force_fps:
-        frames = _decode(path)[0]
-        return Clip(frames, np.arange(frames.shape[0]) / fps, float(fps), "fps")
-    frames, t = read_video_timed(path)
+        frames = VideoFrames(path, n, height, width)
+        return Clip(frames, np.arange(n) / fps, float(fps), "fps")
+    if times is None:
+        msg = f"video {path} has frames without timestamps; give --fps and --force-fps"
+        raise ValueError(msg)
+    if np.all(np.diff(times) > 0):  # read window by window as the fit asks for them
+        frames: np.ndarray | VideoFrames = VideoFrames(path, n, height, width, times)
+        t = times - times[0]
+    else:  # a repeated timestamp: decoded whole, where it is refused in one line
+        frames, t = read_video_timed(path)
     own = nominal_rate(t)
     if fps is not None and math.isfinite(own) and abs(fps / own - 1.0) > FPS_TOLERANCE:
         msg = (f"--fps {fps:g} contradicts the video's own frame rate, {own:.3g} fps from its "

@@ -52,7 +52,8 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     Parameters
     ----------
     frames : (T, H, W, 3) or (T, H, W) array
-        Frame sequence, float in [0, 1] or uint8.
+        Frame sequence, float in [0, 1] or uint8; or frames read as windows are asked for
+        (:class:`wavealt.framesource.VideoFrames`), only a window's held at a time.
     fps : float, optional
         Frame rate, frames per second, of evenly spaced frames; or give ``times_s``.
     times_s : (T,) array, optional
@@ -96,7 +97,10 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
         seconds), ``fps`` (its rate) and the fields of its :class:`DispersionResult`
         (``to_dict``).
     """
-    arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    if isinstance(frames, np.ndarray) or not hasattr(frames, "shape"):
+        arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
+    else:  # frames read window by window (a video, :mod:`wavealt.framesource`): each
+        arr = frames  # window is checked by the altimeter as it is read
     if times_s is None:
         if fps is None:
             msg = "give fps or times_s (the frames' times)"

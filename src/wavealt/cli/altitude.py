@@ -206,6 +206,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     finally:
         if link is not None:
             link.close()
+        if hasattr(clip.frames, "close"):  # a video's decoder
+            clip.frames.close()
     if as_json:
         click.echo(json.dumps({**summary, "velocity_mps": summary["camera_velocity_mps"]}))
         return
@@ -356,10 +358,12 @@ def _calibration(w: int, h: int, focal_px: float | None, fov_deg: float | None,
 
 def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
                 calibration: Path | None, roll_deg: float | None, pitch_deg: float | None,
-                attitude: Path | None) -> tuple[np.ndarray, float, str | None]:
+                attitude: Path | None) -> tuple[Any, float, str | None]:
     """The frames the altimeter fits, their focal length, and a line saying how they were
     made: as read for a nadir pinhole; undistorted and levelled (``camera.NadirView``) for a
     calibration or an attitude."""
+    import numpy as np
+
     from wavealt.camera import NadirView, read_attitude, read_calibration
 
     frames = clip.frames
@@ -378,5 +382,12 @@ def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
     view = NadirView(calib, w, h, roll_deg=roll, pitch_deg=pitch)
     ow, oh = view.out_size
     lens = f"undistorted ({calibration}), " if calibration is not None else ""
-    return view(frames), view.focal_px, (f"camera: {lens}levelled to nadir ({source}): "
-                                         f"{ow}x{oh} px at focal {view.focal_px:.1f} px")
+    if isinstance(frames, np.ndarray):
+        levelled = view(frames)
+    else:  # a video read window by window: each window levelled as it is read
+        from wavealt.framesource import WindowMap
+
+        levelled = WindowMap(frames, lambda window, start: view(window, first=start),
+                             (frames.shape[0], oh, ow, *frames.shape[3:]), frames.dtype)
+    return levelled, view.focal_px, (f"camera: {lens}levelled to nadir ({source}): "
+                                     f"{ow}x{oh} px at focal {view.focal_px:.1f} px")

@@ -413,8 +413,8 @@ def unturn_yaw(frames: np.ndarray, yaw_rate_dps: float, fps: float) -> np.ndarra
     """
     import cv2  # deferred: only for a yawing camera
 
-    check_finite_number("yaw_rate_dps", yaw_rate_dps, low=-MAX_YAW_RATE_DPS,
-                        high=MAX_YAW_RATE_DPS)
+    yaw_rate_dps = check_finite_number("yaw_rate_dps", yaw_rate_dps, low=-MAX_YAW_RATE_DPS,
+                                       high=MAX_YAW_RATE_DPS)
     fps = check_finite_number("fps", fps, low=0.0, low_open=True)
     t, h, w = frames.shape[:3]
     cx, cy = (w - 1) / 2.0, (h - 1) / 2.0

@@ -7,7 +7,8 @@ whole.  ``wavealt altitude VIDEO`` reads through these: at 1080 lines a second o
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from itertools import islice
 from pathlib import Path
 from typing import Any
@@ -15,15 +16,12 @@ from typing import Any
 import numpy as np
 
 
-def _video_error(path: Path, exc: Exception) -> ValueError:
-    return ValueError(f"cannot decode video {path}: {exc}")
-
-
-def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
-    """Every frame's presentation time (seconds, ascending; None where a packet has none),
-    the number of frames and their height and width, from the container's packets (no
-    frame decoded but the first): 0.14 s for ten seconds of 1080-line H.264, against 18 s
-    to decode it.  :class:`VideoFrames` holds the decoder to these times."""
+@contextmanager
+def open_video(path: Path | str) -> Iterator[Any]:
+    """A PyAV container of the video file ``path`` that holds a video stream, closed on
+    leaving; decoding errors inside raised as one-line ValueErrors naming the file
+    (a missing file as ``FileNotFoundError``).  Every reader of video files opens them
+    here."""
     import av  # deferred: 0.4 s, only for video files
 
     path = Path(path)
@@ -35,13 +33,23 @@ def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
             if not container.streams.video:
                 msg = f"{path} holds no video stream"
                 raise ValueError(msg)
-            stream = container.streams.video[0]
-            pts = [p.pts for p in container.demux(stream) if p.size]
-            base = stream.time_base
-        with av.open(str(path)) as container:
-            first = next(iter(container.decode(video=0)), None)
+            yield container
     except av.error.FFmpegError as exc:
-        raise _video_error(path, exc) from None
+        msg = f"cannot decode video {path}: {exc}"
+        raise ValueError(msg) from None
+
+
+def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
+    """Every frame's presentation time (seconds, ascending; None where a packet has none),
+    the number of frames and their height and width, from the container's packets (no
+    frame decoded but the first): 0.14 s for ten seconds of 1080-line H.264, against 18 s
+    to decode it.  :class:`VideoFrames` holds the decoder to these times."""
+    with open_video(path) as container:
+        stream = container.streams.video[0]
+        pts = [p.pts for p in container.demux(stream) if p.size]
+        base = stream.time_base
+    with open_video(path) as container:
+        first = next(iter(container.decode(video=0)), None)
     if not pts or first is None:
         msg = f"video {path} holds no frames"
         raise ValueError(msg)
@@ -50,7 +58,32 @@ def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
     return t, len(pts), first.height, first.width
 
 
-class VideoFrames:
+class _Windows:
+    """Frames ``(T, H, W[, 3])`` read as windows, ``frames[start:stop]`` (``shape`` and
+    ``_window`` given by the subclass); ``np.asarray`` reads them all."""
+
+    ndim = 4
+    shape: tuple[int, ...]
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        out = self[0:len(self)]
+        return out if dtype is None else out.astype(dtype)
+
+    def __getitem__(self, key: slice) -> np.ndarray:
+        if not isinstance(key, slice) or key.step not in (None, 1):
+            msg = "frames are read as windows: frames[start:stop]"
+            raise TypeError(msg)
+        start, stop, _ = key.indices(self.shape[0])
+        return self._window(start, stop)
+
+    def _window(self, start: int, stop: int) -> np.ndarray:
+        raise NotImplementedError
+
+
+class VideoFrames(_Windows):
     """The frames of a video file, ``(T, H, W, 3)`` uint8 RGB, decoded as windows of them are
     asked for: ``frames[a:b]`` decodes up to frame ``b`` and keeps only the frames from ``a``
     on, so windows that move forward (sliding windows) hold one window's frames at a time
@@ -62,7 +95,6 @@ class VideoFrames:
     disagree, or that changed since, is an error, not a wrong window).
     """
 
-    ndim = 4
     dtype = np.dtype(np.uint8)
 
     def __init__(self, path: Path | str, n_frames: int, height: int, width: int,
@@ -74,25 +106,13 @@ class VideoFrames:
         self._held: deque[np.ndarray] = deque()
         self._first = 0  # index of the first frame held (the next to decode when none is)
         self._next = 0  # index of the next frame the decoder gives
-        self._container: Any = None
+        self._opened: Any = None  # the open_video context, entered
         self._frames: Any = None
 
-    def __len__(self) -> int:
-        return self.shape[0]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        out = self[0:len(self)]
-        return out if dtype is None else out.astype(dtype)
-
     def _open(self) -> None:
-        import av
-
         self.close()
-        try:
-            self._container = av.open(str(self.path))
-            self._frames = self._container.decode(video=0)
-        except av.error.FFmpegError as exc:
-            raise _video_error(self.path, exc) from None
+        self._opened = open_video(self.path)
+        self._frames = self._opened.__enter__().decode(video=0)
         self._held.clear()
         self._first = self._next = 0
 
@@ -105,8 +125,9 @@ class VideoFrames:
             msg = (f"video {self.path} ended after {self._next} frames; it held "
                    f"{self.shape[0]} when it was first read")
             raise ValueError(msg) from None
-        except av.error.FFmpegError as exc:
-            raise _video_error(self.path, exc) from None
+        except av.error.FFmpegError as exc:  # raised where the context cannot see it
+            msg = f"cannot decode video {self.path}: {exc}"
+            raise ValueError(msg) from None
         want = None if self.times_s is None else float(self.times_s[self._next])
         if want is not None and frame.time is not None and abs(frame.time - want) > 1e-6:
             msg = (f"video {self.path}: frame {self._next} decodes at {frame.time:.6f} s, its "
@@ -119,11 +140,7 @@ class VideoFrames:
         self._next += 1
         return arr
 
-    def __getitem__(self, key: slice) -> np.ndarray:
-        if not isinstance(key, slice) or key.step not in (None, 1):
-            msg = "video frames are read as windows: frames[start:stop]"
-            raise TypeError(msg)
-        start, stop, _ = key.indices(self.shape[0])
+    def _window(self, start: int, stop: int) -> np.ndarray:
         if stop <= start:
             return np.empty((0, *self.shape[1:]), np.uint8)
         if self._frames is None or start < self._first:
@@ -144,34 +161,21 @@ class VideoFrames:
 
     def close(self) -> None:
         """Close the decoder (a later window opens it again)."""
-        if self._container is not None:
-            self._container.close()
-        self._container = self._frames = None
+        if self._opened is not None:
+            self._opened.__exit__(None, None, None)
+        self._opened = self._frames = None
 
 
-class WindowMap:
+class WindowMap(_Windows):
     """``fn`` applied to each window of frames ``source`` as it is asked for:
     ``view[a:b] = fn(source[a:b], a)``, of shape ``shape`` (``source``'s frame count); the
     window's start tells ``fn`` which frames it has (a level view with one attitude per
     frame)."""
-
-    ndim = 4
 
     def __init__(self, source: Any, fn: Callable[[np.ndarray, int], np.ndarray],
                  shape: tuple[int, ...], dtype: Any) -> None:
         self.source, self.fn = source, fn
         self.shape, self.dtype = tuple(shape), np.dtype(dtype)
 
-    def __len__(self) -> int:
-        return self.shape[0]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        out = self[0:len(self)]
-        return out if dtype is None else out.astype(dtype)
-
-    def __getitem__(self, key: slice) -> np.ndarray:
-        if not isinstance(key, slice) or key.step not in (None, 1):
-            msg = "frames are read as windows: frames[start:stop]"
-            raise TypeError(msg)
-        start, stop, _ = key.indices(self.shape[0])
+    def _window(self, start: int, stop: int) -> np.ndarray:
         return self.fn(self.source[start:stop], start)

@@ -202,7 +202,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             dispersion=dispersion, attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
-            yaw_rate_dps=yaw_rate_dps or 0.0, on_window=link.send_altitude if link is not None else None)
+            yaw_rate_dps=yaw_rate_dps or 0.0,
+            on_window=link.send_altitude if link is not None else None)
     finally:
         if link is not None:
             link.close()

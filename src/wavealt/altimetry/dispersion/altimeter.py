@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_choice, check_finite_number, check_frames
-from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDES,
     BLIND_MAP_KAPPA,
@@ -39,6 +38,7 @@ from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
+from wavealt.camera import unturn_yaw
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
@@ -268,10 +268,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
-        yaw_rate_dps = check_finite_number("yaw_rate_dps", yaw_rate_dps,
-                                           low=-MAX_YAW_RATE_DPS, high=MAX_YAW_RATE_DPS)
         if yaw_rate_dps != 0.0:  # a yawing camera: every frame turned as the middle one
-            arr = unturn_yaw(arr, yaw_rate_dps, fps)
+            arr = unturn_yaw(arr, yaw_rate_dps, fps)  # (which checks the rate)
         if binning > 1:  # to the working scale (``working_px``)
             arr, focal_px = bin_frames(arr, binning), focal_px / binning
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames

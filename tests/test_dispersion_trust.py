@@ -447,39 +447,3 @@ def test_the_fit_and_its_tiles_disagree_at_most_at_the_agreement_bar_by_chance()
         reason = est._tile_verdict(tiles, res)
         fired += reason is not None and "from the fit" in reason
     assert fired / n < 0.01, fired / n
-
-
-def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.ndarray:
-    """``benchmarks/bench_yaw.py``'s yawing camera (written from MAVLink's axes, not from
-    :func:`wavealt.camera.unturn_yaw`)."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_yaw.py"
-    spec = importlib.util.spec_from_file_location("bench_yaw", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.yawing_view(frames, rate_dps, fps, side)
-
-
-@pytest.mark.parametrize("rate", [15.0, 30.0])
-def test_a_yawing_camera_reads_its_altitude_only_with_its_yaw_rate(rate: float) -> None:
-    """The image turns 0.5-1 degree a frame: the corner tiles each see the water carried a
-    different way, and the fit is not trusted (it read 4 m as 7.5 m and 3.9 m); given the
-    yaw rate, the frames turned back read it as a still camera does; given the other sign,
-    not trusted."""
-    cfg = preset_config("realistic", size=256, frames=10, altitude_m=(4.0, 4.0),
-                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.4, 0.4))
-    sc = cfg.sample_scenario(3)
-    sea = generate_sequence(sc, cfg).clean.mean(axis=-1)
-    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
-    est = DispersionAltimeter()
-    still = est.estimate(_yawing(sea, 0.0, cfg.fps, 176), **kw)
-    clip = _yawing(sea, rate, cfg.fps, 176)
-    told = est.estimate(clip, yaw_rate_dps=rate, **kw)
-    assert still.trusted and told.trusted and "+unturned" in told.signal
-    assert abs(told.altitude_m / still.altitude_m - 1.0) < 0.02
-    assert abs(told.altitude_m / 4.0 - 1.0) < 0.03
-    for res in (est.estimate(clip, **kw), est.estimate(clip, yaw_rate_dps=-rate, **kw)):
-        _assert_honest(res, 4.0)
-        assert not res.trusted

@@ -315,7 +315,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                                   yaw_rate_dps=yaw).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
-        res["yaw_rate_dps"] = yaw
+        res["yaw_rate_dps"] = yaw  # the vehicle's (given), not the result's given + measured
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

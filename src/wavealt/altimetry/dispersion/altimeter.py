@@ -27,6 +27,7 @@ from wavealt.altimetry.dispersion.constants import (
     TILES,
     TRUSTED_QUALITY,
     WORKING_PX,
+    YAW_PASSES,
 )
 from wavealt.altimetry.dispersion.kernel import _one_blas_thread, use_compiled  # noqa: F401
 from wavealt.altimetry.dispersion.levelling import _Level
@@ -38,7 +39,7 @@ from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
-from wavealt.camera import unturn_yaw
+from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
@@ -248,7 +249,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
                   velocity_mps: tuple[float, float] | None,
                   velocity_sigma_mps: float = 0.0, yaw_rate_dps: float = 0.0,
-                  binning: int = 1) -> DispersionResult:
+                  binning: int = 1, yaw_pass: int = 0) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
@@ -275,6 +276,20 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
         res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
+        turn = self._measured_turn(p, signal, fps) if p is not None else None
+        if (turn is not None and yaw_pass < YAW_PASSES
+                and abs(yaw_rate_dps + turn) <= MAX_YAW_RATE_DPS):
+            # The corner tiles show the camera turning about its axis: each sees the water
+            # carried its own way, which one velocity does not fit.  The frames are turned
+            # back at the rate measured (on top of any given) and fitted from the start, as
+            # a levelling pass takes out a tilt.
+            res = self._estimate(frames, fps=fps, focal_px=focal_px, velocity_mps=velocity_mps,
+                                 velocity_sigma_mps=velocity_sigma_mps,
+                                 yaw_rate_dps=yaw_rate_dps + turn, binning=binning,
+                                 yaw_pass=yaw_pass + 1)
+            if "+yaw" not in res.signal:
+                res.signal += "+yaw"
+            return res
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:
             # A rolling shutter: fitted again with every periodogram's row delays undone,
@@ -286,12 +301,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
         # judge a fit that passes the other trust tests
         level = self.attitude == "level"
-        fit_focal = focal_px  # of the view fitted (a levelled view's own)
+        fit_focal, fit_signal = focal_px, signal  # of the view fitted (a levelled view's own)
         wanted = self._distrust(res) is None if level else self._holds_shell(res)
         fits = self._tile_fits(signal, res, fps, focal_px, p) if wanted else []
         if not level:
-            res, fits, p, fit_focal = self._level(arr, fps, focal_px, prior, res, fits, p,
-                                                  lattice)
+            res, fits, p, fit_focal, fit_signal = self._level(arr, fps, focal_px, prior, res,
+                                                              fits, p, lattice, signal)
             if res.attitude_deg is None:
                 res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
                               or res.reason)
@@ -301,8 +316,15 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             res.reason = self._tile_verdict(fits, res)
         if self._distrust(res) is None and "+carried" not in res.signal:
             res.reason = self._rigid_verdict(p and p.get("_fitted", p), res, fps, fit_focal)
+        if self._distrust(res) is None and (turn is not None or fit_signal is not signal):
+            # a turn the passes left (or that a levelled view shows): not modelled
+            turn = self._measured_turn(p, fit_signal, fps)
+            if turn is not None:
+                res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
+                              f"clip (give its yaw rate)")
         res.signal += "+unturned" if yaw_rate_dps != 0.0 else ""
         res.signal += f"+binned{binning}" if binning > 1 else ""
+        res.yaw_rate_dps = yaw_rate_dps
         return self._judge(res)
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,

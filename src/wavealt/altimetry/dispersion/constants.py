@@ -107,6 +107,19 @@ STATIC_NORM_FRACTION = 0.05
 #: window of 151 at 1.0, its foam as strong as its waves), a still second-generator frame
 #: moved 1-3 px a frame with its velocity given, 1.39-4.4.
 RIGID_MAX_RATIO = 1.0
+#: The corner tiles show the camera turning about its axis (:func:`.yaw.significant_turn`)
+#: where their yaw rate lies at least ``YAW_SIGMAS`` standard errors from zero (the usual
+#: three, not tuned) and moves the tiles' centres at least ``YAW_MIN_PX`` px a frame (1.5
+#: deg/s at 30 frames a second on a 176-px frame, whose tiles' centres lie 75 px out: the
+#: least turn that moved a 10-frame fit, realistic preset, tuning seeds 101 / 202; still
+#: windows read up to 2.5 deg/s at z > 3 on the second generator's tuning clips).
+YAW_SIGMAS = 4.0
+YAW_MIN_PX = 0.065
+YAW_BANDS = 2
+#: Times the frames are turned back at the rate their corner tiles show and fitted again:
+#: the rate read on turning frames is 10-20 % low (realistic preset, tuning seeds), and a
+#: second pass reads what the first left.
+YAW_PASSES = 2
 #: Least prominence of the blind profile's peak in standard deviations of the profile's
 #: score under random phase steps (the noise of the mean over the modes it is taken on):
 #: below it the peak is a bump of noise on a profile that a texture without a shell lifts

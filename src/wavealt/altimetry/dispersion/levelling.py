@@ -25,12 +25,12 @@ class _Level:
     def _level(self, arr: np.ndarray, fps: float, focal_px: float,
                prior: tuple[float, float, float] | None, res: DispersionResult,
                fits: list[tuple[float, float, float, float]], p: dict[str, Any] | None,
-               lattice: int = BLOCK_PERIOD_PX
+               lattice: int = BLOCK_PERIOD_PX, signal: np.ndarray | None = None
                ) -> tuple[DispersionResult, list[tuple[float, float, float, float]],
-                          dict[str, Any] | None, float]:
+                          dict[str, Any] | None, float, np.ndarray | None]:
         """The fit of frames ``arr`` levelled at the tilt their corner tiles show, its tiles,
-        periodogram and focal length; ``res``, ``fits``, ``p`` and ``focal_px`` where they
-        show none.
+        periodogram, focal length and the scalar sequence fitted; ``res``, ``fits``, ``p``,
+        ``focal_px`` and ``signal`` where they show none.
 
         A tilted camera sees the sea at a scale that changes across the frame
         (:mod:`.attitude`), which the fit, made for one scale, reads as an average of them
@@ -51,7 +51,7 @@ class _Level:
         from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
 
         h, w = arr.shape[1:3]
-        given = res, fits, p, focal_px
+        given = res, fits, p, focal_px, signal
         focal, rot, made = focal_px, np.eye(3), None
         for _ in range(ATTITUDE_PASSES):
             step = fit_tilt(fits, focal)
@@ -63,15 +63,15 @@ class _Level:
             if max(abs(roll), abs(pitch)) > MAX_TILT_DEG:
                 break
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
-            new, signal, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
+            new, s_new, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
             if not self._holds_shell(new):
                 break
-            rot, res, focal, made, p = turned, new, view.focal_px, step, p_new
+            rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
             fits = self._tile_fits(signal, res, fps, focal, p)
         if made is None:
-            return res, fits, p, focal
+            return res, fits, p, focal, signal
         if len(fits) < 2 or tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0:
             # the levelled view's tiles do not read one scale either: the tilt measured was
             # not the frames' (one tile's peak off the shell, its sigma too small) and the
@@ -82,4 +82,4 @@ class _Level:
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
         res.altitude_std_m = res.altitude_m * math.sqrt(
             (res.altitude_std_m / res.altitude_m) ** 2 + var)
-        return res, fits, p, focal
+        return res, fits, p, focal, signal

@@ -77,6 +77,7 @@ class DispersionResult:
     n_modes: int
     signal: str = ""
     attitude_deg: tuple[float, float] | None = None
+    yaw_rate_dps: float = 0.0
     #: How far the shell's peak stands above the score of random phase steps, in standard
     #: deviations of it (``MIN_SIGNIFICANCE``); internal to the trust decision.
     significance: float = field(default=0.0, repr=False, compare=False)

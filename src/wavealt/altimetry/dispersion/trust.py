@@ -38,7 +38,8 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, significance
-from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners
+from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners, _windowed_modes
+from wavealt.altimetry.dispersion.yaw import significant_turn
 
 
 class _Trust:
@@ -245,6 +246,28 @@ class _Trust:
             return None
         return (f"a still pattern carried across the image explains the motion as well as "
                 f"the waves ({ratio:.2f} of their score): no dispersion to measure")
+
+    def _measured_turn(self, p: dict[str, Any] | None, signal: np.ndarray,
+                       fps: float) -> float | None:
+        """The yaw rate, deg/s, at which the corner tiles of the fitted ``signal`` show the
+        camera turning about its axis (:func:`.yaw.significant_turn`; their mode series
+        taken from ``p`` where it holds them); None where they show no turn.  A fit assumes
+        one velocity over the frame; a turn gives each tile its own, and the shell the fit
+        finds is smeared or moved: 8.57 m read as 9.75 m at 3 deg/s, trusted, before this
+        test (``docs/dispersion.md``, twenty-third session)."""
+        tiles = _corners(signal, self.corner_tiles or 0.4)
+        shape = tiles[0].shape[1:]
+        if min(shape) < 32:
+            return None
+        kx, ky, _, _, idx = self._plane(*shape)
+        if (p is not None and p.get("corners") and p.get("_series") is not None
+                and tuple(p["tile"]) == shape):
+            series, idx = p["_series"], p["_series_modes"]
+        else:
+            series = _windowed_modes(tiles, idx)
+            series -= series.mean(axis=1, keepdims=True)
+        return significant_turn(series, kx[idx], ky[idx],
+                                tile_centres(signal.shape[1:], shape), fps)
 
     def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
                    focal_px: float, p: dict[str, Any] | None = None

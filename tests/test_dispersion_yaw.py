@@ -1,0 +1,134 @@
+"""A camera that turns about its axis: its corner tiles measure the rate, and the altimeter
+turns the frames back before it fits them (given the rate, or measuring it)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wavealt.altimetry.dispersion import MAX_TRUSTED_3SIGMA, DispersionAltimeter
+from wavealt.altimetry.dispersion.constants import YAW_BANDS
+from wavealt.altimetry.dispersion.yaw import significant_turn, tile_yaw
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
+
+FPS = 30.0
+#: Tile centres ``(x, y)`` px from the frame's centre, in the corner tiles' order (top
+#: left, top right, bottom left, bottom right; image y down).
+CENTRES = [(-50.0, -50.0), (50.0, -50.0), (-50.0, 50.0), (50.0, 50.0)]
+
+
+def _tile_series(omega: float, rng: np.random.Generator, *, frames: int = 10,
+                 noise: float = 0.1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mode series of four tiles of one sea drifting at ``(0.7, -0.3)`` px a frame, its
+    waves stepping by a dispersion term of their own, seen by a camera turning at ``omega``
+    rad a frame (the top of the image to the right: the image moves by ``omega (y, -x)``)."""
+    n = 800
+    kappa = rng.uniform(0.3, 2.0, n)
+    angle = rng.uniform(0.0, 2.0 * np.pi, n)
+    kx, ky = kappa * np.cos(angle), kappa * np.sin(angle)
+    t = np.arange(frames)[:, None]
+    series = []
+    for x, y in CENTRES:
+        vx, vy = 0.7 + omega * y, -0.3 - omega * x
+        step = -(kx * vx + ky * vy) + 0.5 * np.sqrt(kappa)  # the waves' own, in every tile
+        g = np.exp(1j * (step * t + rng.uniform(0.0, 2.0 * np.pi, n)))
+        g += noise * (rng.standard_normal(g.shape) + 1j * rng.standard_normal(g.shape))
+        series.append(g - g.mean(axis=0))
+    return np.stack(series), kx, ky
+
+
+@pytest.mark.parametrize("omega", [0.004, -0.0025, 0.02])
+def test_the_tiles_read_the_turn_and_not_the_drift_or_the_waves(omega: float) -> None:
+    rng = np.random.default_rng(5)
+    series, kx, ky = _tile_series(omega, rng)
+    est, sd, pairs = tile_yaw(series, kx, ky, CENTRES)
+    assert pairs == 6 * YAW_BANDS
+    assert abs(est - omega) < 0.03 * abs(omega), (est, omega)
+    rate = significant_turn(series, kx, ky, CENTRES, FPS)
+    assert rate is not None and abs(rate / (math.degrees(omega) * FPS) - 1.0) < 0.03
+
+
+def test_a_still_camera_shows_no_turn() -> None:
+    for seed in range(5):
+        series, kx, ky = _tile_series(0.0, np.random.default_rng(seed))
+        est, sd, _ = tile_yaw(series, kx, ky, CENTRES)
+        assert abs(est) < 1e-4
+        assert significant_turn(series, kx, ky, CENTRES, FPS) is None
+
+
+def test_tiles_without_coherent_modes_measure_nothing() -> None:
+    rng = np.random.default_rng(1)
+    noise = rng.standard_normal((4, 10, 500)) + 1j * rng.standard_normal((4, 10, 500))
+    kx, ky = rng.uniform(-2, 2, 500), rng.uniform(-2, 2, 500)
+    est, sd, pairs = tile_yaw(noise, kx, ky, CENTRES)
+    assert pairs < 3 and math.isnan(est)
+    assert significant_turn(noise, kx, ky, CENTRES, FPS) is None
+
+
+def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.ndarray:
+    """``benchmarks/bench_yaw.py``'s yawing camera (written from MAVLink's axes, not from
+    :func:`wavealt.camera.unturn_yaw`)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_yaw.py"
+    spec = importlib.util.spec_from_file_location("bench_yaw", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.yawing_view(frames, rate_dps, fps, side)
+
+
+@pytest.fixture(scope="module")
+def sea() -> tuple[np.ndarray, dict]:
+    cfg = preset_config("realistic", size=256, frames=10, altitude_m=(4.0, 4.0),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.4, 0.4))
+    sc = cfg.sample_scenario(3)
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
+    return generate_sequence(sc, cfg).clean.mean(axis=-1), kw
+
+
+@pytest.mark.parametrize("rate", [-10.0, 5.0, 20.0])
+def test_the_rendered_sea_seen_turning_shows_its_rate(sea, rate: float) -> None:
+    frames, kw = sea
+    est = DispersionAltimeter()
+    measured = est._measured_turn(None, _yawing(frames, rate, kw["fps"], 176), kw["fps"])
+    assert measured is not None and abs(measured / rate - 1.0) < 0.25, measured
+    assert est._measured_turn(None, _yawing(frames, 0.0, kw["fps"], 176), kw["fps"]) is None
+
+
+def _assert_honest(res, true_alt: float) -> None:
+    err = abs(res.altitude_m - true_alt)
+    assert err <= 3.0 * res.altitude_std_m, (res, true_alt)
+    if res.trusted:
+        assert err / true_alt <= 0.10, (res, true_alt)
+        assert 3.0 * res.altitude_std_m / res.altitude_m <= np.log1p(MAX_TRUSTED_3SIGMA) + 1e-12
+    else:
+        assert isinstance(res.reason, str) and res.reason
+
+
+@pytest.mark.parametrize("rate", [5.0, 15.0])
+def test_a_yawing_camera_reads_its_altitude_with_its_yaw_rate_given_or_measured(
+        sea, rate: float) -> None:
+    """The image turns 0.15-0.5 degree a frame: the corner tiles each see the water carried
+    a different way, which one velocity does not fit (before the turn was measured, 4 m read
+    as 7.5 m, not trusted).  Given the rate, the frames turned back read as a still camera's;
+    not given, the tiles measure it and the frames are turned back at that; given with the
+    wrong sign, the estimate keeps the contract."""
+    frames, kw = sea
+    est = DispersionAltimeter()
+    still = est.estimate(_yawing(frames, 0.0, kw["fps"], 176), **kw)
+    clip = _yawing(frames, rate, kw["fps"], 176)
+    told = est.estimate(clip, yaw_rate_dps=rate, **kw)
+    assert still.trusted and still.yaw_rate_dps == 0.0 and "+yaw" not in still.signal
+    assert told.trusted and "+unturned" in told.signal and told.yaw_rate_dps == rate
+    assert abs(told.altitude_m / still.altitude_m - 1.0) < 0.02
+    measured = est.estimate(clip, **kw)
+    assert measured.trusted and "+yaw" in measured.signal, measured
+    assert abs(measured.yaw_rate_dps / rate - 1.0) < 0.2
+    _assert_honest(measured, 4.0)
+    assert abs(measured.altitude_m / 4.0 - 1.0) < 0.05
+    assert measured.to_dict()["yaw_rate_dps"] == measured.yaw_rate_dps
+    _assert_honest(est.estimate(clip, yaw_rate_dps=-rate, **kw), 4.0)

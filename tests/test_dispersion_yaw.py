@@ -59,13 +59,14 @@ def test_a_still_camera_shows_no_turn() -> None:
         assert significant_turn(series, kx, ky, CENTRES, FPS) is None
 
 
-def test_tiles_without_coherent_modes_measure_nothing() -> None:
-    rng = np.random.default_rng(1)
-    noise = rng.standard_normal((4, 10, 500)) + 1j * rng.standard_normal((4, 10, 500))
-    kx, ky = rng.uniform(-2, 2, 500), rng.uniform(-2, 2, 500)
-    est, sd, pairs = tile_yaw(noise, kx, ky, CENTRES)
-    assert pairs < 3 and math.isnan(est)
-    assert significant_turn(noise, kx, ky, CENTRES, FPS) is None
+def test_tiles_of_noise_show_no_turn() -> None:
+    """White noise leaves a few modes coherent by chance in every tile; their phase steps
+    fit some rate, which the units' spread does not call a turn."""
+    for seed in range(60):
+        rng = np.random.default_rng(seed)
+        noise = rng.standard_normal((4, 10, 500)) + 1j * rng.standard_normal((4, 10, 500))
+        kx, ky = rng.uniform(-2.0, 2.0, 500), rng.uniform(-2.0, 2.0, 500)
+        assert significant_turn(noise, kx, ky, CENTRES, FPS) is None, seed
 
 
 def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.ndarray:

@@ -88,7 +88,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
               help="The camera's yaw rate, deg/s, positive turning the image top (the nose) "
                    "right, as a steady turn over the input; each window's frames are turned "
                    "back to its middle frame's orientation.  With --tilt-from-vehicle, live, "
-                   "the vehicle's own ATTITUDE yawspeed is taken.  [default: 0]")
+                   "the vehicle's own ATTITUDE yawspeed is taken.  [default: measured from "
+                   "the corner tiles where they show a turn]")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: altitude_m, altitude_std_m (1 sigma), trusted, reason "
                    "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "

@@ -215,7 +215,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             The camera's yaw rate, degrees per second, positive turning the top of the
             image (the vehicle's nose) right: the frames are turned back to the middle
             frame's orientation first (:func:`wavealt.camera.unturn_yaw`), so the result's
-            velocity is in the middle frame's axes.  At most 180.
+            velocity is in the middle frame's axes.  At most 180.  A turn the corner tiles
+            show beyond it (:func:`.yaw.tile_yaw`) is turned back too, and the result's
+            ``yaw_rate_dps`` says at what rate the frames were.
 
         Returns
         -------

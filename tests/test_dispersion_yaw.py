@@ -133,3 +133,33 @@ def test_a_yawing_camera_reads_its_altitude_with_its_yaw_rate_given_or_measured(
     assert abs(measured.altitude_m / 4.0 - 1.0) < 0.05
     assert measured.to_dict()["yaw_rate_dps"] == measured.yaw_rate_dps
     _assert_honest(est.estimate(clip, yaw_rate_dps=-rate, **kw), 4.0)
+
+
+def test_the_command_line_reports_the_turn_it_measured(sea, tmp_path, run_cli) -> None:
+    """A frame folder of a camera turning at 15 deg/s, its rate not given: the JSON's
+    ``yaw_rate_dps`` is the rate measured, the text says the frames were turned back, and
+    ``altitude.csv`` holds each window's rate."""
+    import csv
+    import json
+
+    from wavealt.io import write_frames_folder
+
+    frames, kw = sea
+    grey = np.clip(_yawing(frames, 15.0, kw["fps"], 176), 0.0, 1.0)
+    clip = np.repeat(grey[..., None], 3, axis=-1)
+    write_frames_folder(tmp_path / "f", clip)
+    vx, vy = kw["velocity_mps"]
+    args = ["altitude", str(tmp_path / "f"), "--fps", str(kw["fps"]), "--focal-px",
+            str(kw["focal_px"]), "--velocity-mps", f"{vx},{vy}"]
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    summary = json.loads(out)
+    assert abs(summary["yaw_rate_dps"] / 15.0 - 1.0) < 0.25, summary
+    code, out, err = run_cli([*args, "--out", str(tmp_path / "out")])
+    assert code == 0, err
+    assert "measured from the frames" in out
+    with open(tmp_path / "out" / "altitude.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert float(rows[0]["yaw_rate_dps"]) == pytest.approx(summary["yaw_rate_dps"], rel=1e-5)
+    code, out, err = run_cli([*args, "--yaw-rate-dps", "15"])
+    assert code == 0 and "measured from the frames" not in out

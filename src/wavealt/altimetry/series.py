@@ -30,7 +30,7 @@ NO_TRUSTED_WINDOW = "no window trusted"
 #: Columns of ``altitude.csv``, one row per window.
 CSV_COLUMNS = ("start_frame", "stop_frame", "time_s", "fps", "altitude_m", "altitude_std_m",
                "camera_vx_mps", "camera_vy_mps", "quality", "trusted", "mode", "reason",
-               "frames", "n_modes")
+               "frames", "n_modes", "yaw_rate_dps")
 
 
 def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: float,
@@ -171,7 +171,8 @@ def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
         ``altitude_m``, ``altitude_std_m`` (1 sigma), ``camera_velocity_mps`` (the camera
         relative to the water surface, image +x columns / +y rows, m/s), ``quality`` (mean
         over every window), ``trusted``, ``reason`` (None when trusted), ``mode``,
-        ``frames``, ``n_modes``, ``signal``, ``windows`` and ``trusted_windows``.
+        ``frames``, ``n_modes``, ``signal``, ``yaw_rate_dps`` (the median of the windows'
+        rate turned back at), ``windows`` and ``trusted_windows``.
     """
     if not rows:
         msg = "rows must hold at least one window; got none"
@@ -201,7 +202,8 @@ def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
                    "trusted": trusted, "reason": None if trusted else NO_TRUSTED_WINDOW,
                    "mode": rows[0]["mode"], "frames": int(frames),
                    "n_modes": int(np.median([r["n_modes"] for r in used])),
-                   "signal": Counter(r.get("signal", "") for r in used).most_common(1)[0][0]}
+                   "signal": Counter(r.get("signal", "") for r in used).most_common(1)[0][0],
+                   "yaw_rate_dps": float(np.median([r.get("yaw_rate_dps", 0.0) for r in used]))}
     summary["windows"] = len(rows)
     summary["trusted_windows"] = n_trusted
     return summary

@@ -96,7 +96,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "camera relative to the water surface, image axes, m/s; also as "
                    "velocity_mps, the design contract's name), quality, frames, windows, "
                    "trusted_windows; attitude_deg (roll, pitch) where the frames' own tilt was "
-                   "measured and levelled, else null.")
+                   "measured and levelled, else null; yaw_rate_dps, the rate the frames were "
+                   "turned back at (given plus measured), deg/s.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 @click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
@@ -225,6 +226,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         roll, pitch = summary["attitude_deg"]
         click.echo(f"camera tilt measured from the frames: roll {roll:+.1f}, pitch {pitch:+.1f} "
                    "deg (frames levelled at it)")
+    turned = summary.get("yaw_rate_dps") or 0.0
+    if turned != (yaw_rate_dps or 0.0):
+        click.echo(f"camera turning {turned:+.1f} deg/s about its axis, measured from the "
+                   "frames (frames turned back at it)")
     click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
                f"{summary['windows']} window(s), {summary['trusted_windows']} trusted")
     timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}

@@ -1,7 +1,8 @@
 """The dispersion altimeter on a camera that yaws; prints one JSON object.
 
     python benchmarks/bench_yaw.py [--seeds 23,31] [--sequences 40] [--rates 10,30]
-        [--frames 10] [--mode exact|blind] [--workers 1] [--out FILE.json]
+        [--frames 10] [--mode exact|blind] [--sea realistic|second] [--workers 1]
+        [--out FILE.json]
 
 Each sequence of the realistic renderer (256 px, altitude 1-15 m, wind 2-12 m/s, drift 0-1
 m/s, clean frames) is the sea in the axes of the clip's middle frame; a camera whose nose
@@ -11,7 +12,10 @@ through a turn) sampled where the middle frame sees each point (MAVLink's axes:
 same crop, no turn), is fitted as it is (``untold``) and with ``yaw_rate_dps`` given
 (``told``).  ``--mode exact`` gives the camera's velocity over the water; ``blind`` none.
 Per rate and case: relative MAE, median, trusted share, trusted windows more than 10 % off,
-3-sigma coverage.  Exit code 0: a report, not a gate.
+3-sigma coverage.  ``--sea second`` takes the sea of ``bench_foreign_sea.py``'s independent
+generator instead (its clip ``seed + index``, 256 px, its own frame rate and focal length,
+the camera's velocity over the water given in exact mode; at most its 30 frames).  Exit
+code 0: a report, not a gate.
 """
 
 from __future__ import annotations
@@ -58,34 +62,76 @@ def yawing_view(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> n
     return np.stack(out).astype(np.float32)
 
 
-def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
-                 mode: str) -> list[dict[str, Any]]:
-    from wavealt.altimetry.dispersion import DispersionAltimeter
+def _realistic_sea(seed: int, index: int, frames: int) -> tuple[np.ndarray, dict[str, Any]]:
+    """The realistic renderer's clean frames (grey) of sequence ``index`` of ``seed``, and
+    the sea's truth: ``altitude_m``, ``fps``, ``focal_px``, ``velocity_mps``."""
     from wavealt.sim.config import preset_config
     from wavealt.sim.generate import generate_sequence
 
-    seed, index = task
     cfg = preset_config("realistic", size=RENDER_PX, frames=frames, seed=seed,
                         altitude_m=(1.0, 15.0), wind_speed_mps=(2.0, 12.0),
                         camera_speed_mps=(0.0, 1.0))
     sc = cfg.sample_scenario(index)
-    sea = generate_sequence(sc, cfg).clean.mean(axis=-1)
-    kw: dict[str, Any] = {"fps": cfg.fps, "focal_px": cfg.focal_px}
+    return generate_sequence(sc, cfg).clean.mean(axis=-1), {
+        "altitude_m": sc.altitude_m, "fps": cfg.fps, "focal_px": cfg.focal_px,
+        "velocity_mps": tuple(float(v) for v in sc.camera_velocity_mps)}
+
+
+def _second_sea(seed: int, index: int, frames: int) -> tuple[np.ndarray, dict[str, Any]]:
+    """The independent generator's clip ``seed + index`` (``bench_foreign_sea.py``), its
+    first ``frames`` frames scaled to [0, 1], and its truth (as :func:`_realistic_sea`)."""
+    gen = _generator()
+    sc = gen.draw_scene(seed + index)
+    clip, _ = gen.render_clip(sc)
+    if frames > clip.shape[0]:
+        msg = f"--frames must be at most {clip.shape[0]} with --sea second; got {frames}"
+        raise ValueError(msg)
+    return clip[:frames].astype(np.float32) / 255.0, {
+        "altitude_m": sc.altitude_m, "fps": gen.FPS, "focal_px": sc.focal_px,
+        "velocity_mps": tuple(float(v) for v in sc.over_water)}
+
+
+def _generator() -> Any:
+    """``benchmarks/bench_foreign_sea.py``, imported once (registered as a module, which its
+    dataclasses need)."""
+    import importlib.util
+
+    name = "bench_foreign_sea"
+    if name not in sys.modules:
+        path = Path(__file__).resolve().parent / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod
+        spec.loader.exec_module(mod)
+    return sys.modules[name]
+
+
+SEAS = {"realistic": _realistic_sea, "second": _second_sea}
+
+
+def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
+                 mode: str, sea_name: str = "realistic") -> list[dict[str, Any]]:
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+
+    seed, index = task
+    sea, truth = SEAS[sea_name](seed, index, frames)
+    kw: dict[str, Any] = {"fps": truth["fps"], "focal_px": truth["focal_px"]}
     if mode == "exact":
-        kw["velocity_mps"] = tuple(float(v) for v in sc.camera_velocity_mps)
-    est = DispersionAltimeter()
+        kw["velocity_mps"] = truth["velocity_mps"]
+    est = DispersionAltimeter(dispersion="gravity-capillary")
     out = []
     for rate in (0.0, *rates):
-        clip = yawing_view(sea, rate, cfg.fps, CAMERA_PX)
+        clip = np.clip(yawing_view(sea, rate, truth["fps"], CAMERA_PX), 0.0, 1.0)
         for case, given in (("untold", 0.0), ("told", rate)):
             if rate == 0.0 and case == "told":
                 continue
             t0 = time.perf_counter()
             res = est.estimate(clip, yaw_rate_dps=given, **kw)
             out.append({"seed": seed, "index": index, "rate_dps": rate, "case": case,
-                        "altitude_m": sc.altitude_m, "estimate_m": res.altitude_m,
+                        "altitude_m": truth["altitude_m"], "estimate_m": res.altitude_m,
                         "std_m": res.altitude_std_m, "trusted": bool(res.trusted),
-                        "reason": res.reason, "ms": 1e3 * (time.perf_counter() - t0)})
+                        "reason": res.reason, "yaw_rate_dps": res.yaw_rate_dps,
+                        "ms": 1e3 * (time.perf_counter() - t0)})
     return out
 
 
@@ -116,6 +162,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--rates", default="10,30", help="yaw rates, deg/s, comma-separated")
     ap.add_argument("--frames", type=int, default=10)
     ap.add_argument("--mode", choices=("exact", "blind"), default="exact")
+    ap.add_argument("--sea", choices=tuple(SEAS), default="realistic",
+                    help="the realistic renderer's sea, or the independent generator's")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
@@ -128,13 +176,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         ap.error(f"--rates must be non-zero and within +-180 deg/s; got {a.rates}")
     if a.sequences < 1 or a.workers < 1 or a.frames < 3:
         ap.error("--sequences and --workers must be at least 1, --frames at least 3")
+    if a.sea == "second" and a.frames > 30:
+        ap.error(f"--frames must be at most 30 with --sea second; got {a.frames}")
     return a
 
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     tasks = [(s, i) for s in a.seeds for i in range(a.sequences)]
-    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode)
+    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea)
     t0 = time.perf_counter()
     if a.workers > 1:
         with multiprocessing.get_context("spawn").Pool(a.workers) as pool:
@@ -145,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = [r for part in parts for r in part]
     summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),
-               "frames": a.frames, "mode": a.mode, "camera_px": CAMERA_PX,
+               "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
                "by_rate": summarise(rows), "seconds": round(time.perf_counter() - t0, 1)}
     print(json.dumps(summary, indent=1))
     if a.out is not None:

@@ -45,9 +45,33 @@ def test_the_yawing_view_turned_back_is_the_still_view() -> None:
     (("--rates", "400"), "--rates must be non-zero and within +-180"),
     (("--seeds", "a"), "--seeds and --rates must be numbers"),
     (("--mode", "prior"), "invalid choice: 'prior'"),
+    (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
+    (("--sea", "paper"), "invalid choice: 'paper'"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
                          timeout=120)
     assert res.returncode == 2
     assert message in res.stderr.strip().splitlines()[-1]
+
+
+def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
+    """``--sea second``: the frames are the generator's clip of seed + index, scaled to [0,
+    1], with its altitude, frame rate, focal length and velocity over the water; a run of
+    one sequence gives the still and the turned rows of that sea."""
+    spec = importlib.util.spec_from_file_location("bench_yaw", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    gen = mod._generator()
+    sea, truth = mod._second_sea(3000, 2, 10)
+    sc = gen.draw_scene(3002)
+    clip, _ = gen.render_clip(sc)
+    assert sea.shape == (10, *clip.shape[1:]) and sea.dtype == np.float32
+    np.testing.assert_array_equal(sea * 255.0, clip[:10].astype(np.float32))
+    assert truth["altitude_m"] == sc.altitude_m and truth["fps"] == gen.FPS
+    assert truth["velocity_mps"] == tuple(sc.over_water)
+    rows = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second")
+    assert [(r["rate_dps"], r["case"]) for r in rows] == [(0.0, "untold"), (10.0, "untold"),
+                                                          (10.0, "told")]
+    assert all(r["altitude_m"] == sc.altitude_m for r in rows)
+    assert rows[2]["yaw_rate_dps"] != 0.0  # told: turned back at least at the rate given

@@ -122,7 +122,7 @@ def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
     out = []
     for rate in (0.0, *rates):
         clip = np.clip(yawing_view(sea, rate, truth["fps"], CAMERA_PX), 0.0, 1.0)
-        for case, given in (("untold", 0.0), ("told", rate)):
+        for case, given in (("untold", None), ("told", rate)):
             if rate == 0.0 and case == "told":
                 continue
             t0 = time.perf_counter()

@@ -116,8 +116,9 @@ def test_a_yawing_camera_reads_its_altitude_with_its_yaw_rate_given_or_measured(
     """The image turns 0.15-0.5 degree a frame: the corner tiles each see the water carried
     a different way, which one velocity does not fit (before the turn was measured, 4 m read
     as 7.5 m, not trusted).  Given the rate, the frames turned back read as a still camera's;
-    not given, the tiles measure it and the frames are turned back at that; given with the
-    wrong sign, the estimate keeps the contract."""
+    not given, the tiles measure it and the frames are turned back at that; a rate given is
+    the truth (0 declares a still camera, and nothing is measured); given with the wrong
+    sign, the estimate keeps the contract."""
     frames, kw = sea
     est = DispersionAltimeter()
     still = est.estimate(_yawing(frames, 0.0, kw["fps"], 176), **kw)
@@ -128,6 +129,8 @@ def test_a_yawing_camera_reads_its_altitude_with_its_yaw_rate_given_or_measured(
     assert abs(told.altitude_m / still.altitude_m - 1.0) < 0.02
     measured = est.estimate(clip, **kw)
     assert measured.trusted and "+yaw" in measured.signal, measured
+    declared = est.estimate(clip, yaw_rate_dps=0.0, **kw)  # declared still: not measured
+    assert declared.yaw_rate_dps == 0.0 and "+yaw" not in declared.signal
     assert abs(measured.yaw_rate_dps / rate - 1.0) < 0.2
     _assert_honest(measured, 4.0)
     assert abs(measured.altitude_m / 4.0 - 1.0) < 0.05

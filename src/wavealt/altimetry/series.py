@@ -38,7 +38,7 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
                     out: Path | str | None = None, progress: bool = False,
                     velocity_mps: tuple[float, float] | None = None,
                     velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
-                    yaw_rate_dps: float = 0.0, times_s: np.ndarray | None = None,
+                    yaw_rate_dps: float | None = None, times_s: np.ndarray | None = None,
                     on_window: Callable[[dict[str, Any]], Any] | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
@@ -80,8 +80,9 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     readout_s : float
         A rolling shutter's readout time, s (:meth:`DispersionAltimeter.estimate`); 0: a
         global shutter.
-    yaw_rate_dps : float
-        The camera's steady yaw rate, deg/s (:meth:`DispersionAltimeter.estimate`).
+    yaw_rate_dps : float, optional
+        The camera's steady yaw rate, deg/s, taken as the truth; not given, each window's
+        is measured (:meth:`DispersionAltimeter.estimate`).
     on_window : callable, optional
         Called with each window's row as soon as it is estimated (e.g. to send it to a
         flight controller).

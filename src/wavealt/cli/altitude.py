@@ -87,9 +87,10 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
 @click.option("--yaw-rate-dps", type=float, default=None, metavar="DPS",
               help="The camera's yaw rate, deg/s, positive turning the image top (the nose) "
                    "right, as a steady turn over the input; each window's frames are turned "
-                   "back to its middle frame's orientation.  With --tilt-from-vehicle, live, "
-                   "the vehicle's own ATTITUDE yawspeed is taken.  [default: measured from "
-                   "the corner tiles where they show a turn]")
+                   "back to its middle frame's orientation, the rate taken as the truth (0: a "
+                   "camera that does not turn).  With --tilt-from-vehicle, live, the "
+                   "vehicle's own ATTITUDE yawspeed is taken.  [default: measured from the "
+                   "corner tiles where they show a turn]")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: altitude_m, altitude_std_m (1 sigma), trusted, reason "
                    "(why not, else null), mode (blind, prior, exact), camera_velocity_mps (the "
@@ -97,7 +98,7 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "velocity_mps, the design contract's name), quality, frames, windows, "
                    "trusted_windows; attitude_deg (roll, pitch) where the frames' own tilt was "
                    "measured and levelled, else null; yaw_rate_dps, the rate the frames were "
-                   "turned back at (given plus measured), deg/s.")
+                   "turned back at (given, or measured), deg/s.")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 @click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
@@ -173,7 +174,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
                        dispersion=dispersion, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
-                       yaw_rate_dps=yaw_rate_dps or 0.0,
+                       yaw_rate_dps=yaw_rate_dps,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
@@ -204,7 +205,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             dispersion=dispersion, attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
-            yaw_rate_dps=yaw_rate_dps or 0.0,
+            yaw_rate_dps=yaw_rate_dps,
             on_window=link.send_altitude if link is not None else None)
     finally:
         if link is not None:
@@ -227,7 +228,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         click.echo(f"camera tilt measured from the frames: roll {roll:+.1f}, pitch {pitch:+.1f} "
                    "deg (frames levelled at it)")
     turned = summary.get("yaw_rate_dps") or 0.0
-    if turned != (yaw_rate_dps or 0.0):
+    if yaw_rate_dps is None and turned != 0.0:
         click.echo(f"camera turning {turned:+.1f} deg/s about its axis, measured from the "
                    "frames (frames turned back at it)")
     click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
@@ -246,7 +247,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
-                   readout_s: float, yaw_rate_dps: float,
+                   readout_s: float, yaw_rate_dps: float | None,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
@@ -321,7 +322,6 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                                   yaw_rate_dps=yaw).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
-        res["yaw_rate_dps"] = yaw  # the vehicle's (given), not the result's given + measured
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

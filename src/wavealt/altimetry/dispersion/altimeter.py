@@ -183,7 +183,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     def estimate(self, frames: Any, *, fps: float, focal_px: float,
                  velocity_mps: tuple[float, float] | None = None,
                  velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
-                 yaw_rate_dps: float = 0.0) -> DispersionResult:
+                 yaw_rate_dps: float | None = None) -> DispersionResult:
         """Estimate altitude, its uncertainty and the camera's velocity over the water.
 
         Three modes (``DispersionResult.mode``): **blind** (no ``velocity_mps``: altitude and
@@ -211,12 +211,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             ``readout_s / rows`` apart (0: a global shutter).  At most one frame interval.
             A row read later sees the sea carried further; given, the fit is made again
             with each row's delay undone at the first fit's velocity.
-        yaw_rate_dps : float
+        yaw_rate_dps : float, optional
             The camera's yaw rate, degrees per second, positive turning the top of the
-            image (the vehicle's nose) right: the frames are turned back to the middle
-            frame's orientation first (:func:`wavealt.camera.unturn_yaw`), so the result's
-            velocity is in the middle frame's axes.  At most 180.  A turn the corner tiles
-            show beyond it (:func:`.yaw.tile_yaw`) is turned back too, and the result's
+            image (the vehicle's nose) right, taken as the truth: the frames are turned back
+            to the middle frame's orientation first (:func:`wavealt.camera.unturn_yaw`), so
+            the result's velocity is in the middle frame's axes.  At most 180; 0 declares a
+            camera that does not turn.  Not given, the corner tiles measure the turn
+            (:func:`.yaw.tile_yaw`) and the frames are turned back at it; the result's
             ``yaw_rate_dps`` says at what rate the frames were.
 
         Returns
@@ -250,7 +251,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
 
     def _estimate(self, frames: Any, *, fps: float, focal_px: float,
                   velocity_mps: tuple[float, float] | None,
-                  velocity_sigma_mps: float = 0.0, yaw_rate_dps: float = 0.0,
+                  velocity_sigma_mps: float = 0.0, yaw_rate_dps: float | None = None,
                   binning: int = 1, yaw_pass: int = 0) -> DispersionResult:
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
@@ -271,23 +272,26 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
-        if yaw_rate_dps != 0.0:  # a yawing camera: every frame turned as the middle one
-            arr = unturn_yaw(arr, yaw_rate_dps, fps)  # (which checks the rate)
+        # a yaw rate given is taken as the truth; one measured (a later pass) is checked again
+        measure = yaw_rate_dps is None or yaw_pass > 0
+        yaw = 0.0 if yaw_rate_dps is None else yaw_rate_dps
+        if yaw != 0.0:  # a yawing camera: every frame turned as the middle one
+            arr = unturn_yaw(arr, yaw, fps)  # (which checks the rate)
         if binning > 1:  # to the working scale (``working_px``)
             arr, focal_px = bin_frames(arr, binning), focal_px / binning
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
         res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
-        turn = self._measured_turn(p, signal, fps) if p is not None else None
+        turn = self._measured_turn(p, signal, fps) if measure and p is not None else None
         if (turn is not None and yaw_pass < YAW_PASSES
-                and abs(yaw_rate_dps + turn) <= MAX_YAW_RATE_DPS):
+                and abs(yaw + turn) <= MAX_YAW_RATE_DPS):
             # The corner tiles show the camera turning about its axis: each sees the water
             # carried its own way, which one velocity does not fit.  The frames are turned
-            # back at the rate measured (on top of any given) and fitted from the start, as
-            # a levelling pass takes out a tilt.
+            # back at the rate measured and fitted from the start, as a levelling pass takes
+            # out a tilt.
             res = self._estimate(frames, fps=fps, focal_px=focal_px, velocity_mps=velocity_mps,
                                  velocity_sigma_mps=velocity_sigma_mps,
-                                 yaw_rate_dps=yaw_rate_dps + turn, binning=binning,
+                                 yaw_rate_dps=yaw + turn, binning=binning,
                                  yaw_pass=yaw_pass + 1)
             if "+yaw" not in res.signal:
                 res.signal += "+yaw"
@@ -318,15 +322,16 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             res.reason = self._tile_verdict(fits, res)
         if self._distrust(res) is None and "+carried" not in res.signal:
             res.reason = self._rigid_verdict(p and p.get("_fitted", p), res, fps, fit_focal)
-        if self._distrust(res) is None and (turn is not None or fit_signal is not signal):
+        if (measure and self._distrust(res) is None
+                and (turn is not None or fit_signal is not signal)):
             # a turn the passes left (or that a levelled view shows): not modelled
             turn = self._measured_turn(p, fit_signal, fps)
             if turn is not None:
                 res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
                               f"clip (give its yaw rate)")
-        res.signal += "+unturned" if yaw_rate_dps != 0.0 else ""
+        res.signal += "+unturned" if yaw != 0.0 else ""
         res.signal += f"+binned{binning}" if binning > 1 else ""
-        res.yaw_rate_dps = yaw_rate_dps
+        res.yaw_rate_dps = yaw
         return self._judge(res)
 
     def _fit(self, arr: np.ndarray, fps: float, focal_px: float,
@@ -470,7 +475,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                       velocity_mps: tuple[float, float] | None = None,
                       velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
-                      yaw_rate_dps: float = 0.0, **kw: Any) -> DispersionResult:
+                      yaw_rate_dps: float | None = None, **kw: Any) -> DispersionResult:
     """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
     velocity_mps=, velocity_sigma_mps=, readout_s=, yaw_rate_dps=)``."""
     return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,

@@ -82,6 +82,12 @@ toward the other side (nor any tilt where no tile holds them alone), and with th
 unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those
 tiles read: it is made of them.
 
+A camera that turns about its axis carries the water past each corner tile its own way.
+The difference of two tiles' phase steps on a mode holds the turn and nothing of the waves
+(:mod:`.yaw`); where the tile pairs show a turn, the frames are turned back at it
+(:func:`wavealt.camera.unturn_yaw`) and fitted again, and a turn still shown is not
+trusted.  A yaw rate given is taken as the truth.
+
 References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
 image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;
 Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with the shell;

@@ -1,19 +1,21 @@
 """A camera's yaw rate from its corner tiles' cross-spectra, with no altitude needed.
 
-A camera turning about its optical axis at ``Omega`` rad a frame moves the image at a point
-``r`` px from the centre by ``Omega (-r_y, r_x)`` px a frame, on top of whatever the sea
-does there; the sea's own motion (the waves, the drift) is the same in every tile of a level
-camera.  So for a spatial mode ``k`` that two tiles ``i, j`` both see coherently, the
-difference of their frame-to-frame phase steps (the angle of ``C_i conj(C_j)``, ``C`` the
-tile's lag-one cross-spectrum at ``k``) is ``-k . Omega J (r_i - r_j)``, ``J`` the quarter
-turn: the dispersion relation, the altitude and the drift cancel.  Each pair of the four
-corner tiles fits ``Omega`` to its modes (a Tukey-weighted regression through the origin,
-weights the squared coherence); the six pairs' estimates are the units, their median the
-estimate and their spread its standard error.  The modes of a tile are not independent (a
-tile's window couples its neighbouring modes), which makes a regression's own standard error
-too small by several times; six pairs that see different parts of the frame are closer to
-independent.  Marine-radar current retrieval fits the same phase steps mode by mode
-(Young, Rosenthal & Ziemer 1985), for one velocity over the whole image.
+A camera turning about its optical axis at ``Omega`` rad a frame (the top of the image, the
+vehicle's nose, to the right) moves the image at a point ``(x, y)`` px from the centre (image
+y down) by ``Omega (y, -x)`` px a frame, on top of whatever the sea does there; the sea's
+own motion (the waves, the drift) is the same in every tile of a level camera.  So for a
+spatial mode ``k`` that two tiles ``i, j`` both see coherently, the difference of their
+frame-to-frame phase steps (the angle of ``C_i conj(C_j)``, ``C`` the tile's lag-one
+cross-spectrum at ``k``) is ``Omega (k_y dx - k_x dy)``, ``(dx, dy) = r_i - r_j``: the
+dispersion relation, the altitude and the drift cancel.  Each unit, one of the six pairs
+of the four corner tiles in one of ``YAW_BANDS`` bands of wavenumber, fits ``Omega`` to its
+modes (a Tukey-weighted regression through the origin, weights the squared coherence); the
+units' median is the estimate and their spread its standard error.  The modes of a tile are
+not independent (its window couples neighbouring modes, and each tile's sea differs in
+detail from another's), which makes a regression's own standard error too small by several
+times; units that share no mode are closer to independent.  Marine-radar current retrieval
+fits the same phase steps mode by mode (Young, Rosenthal & Ziemer 1985), for one velocity
+over the whole image.
 """
 
 from __future__ import annotations
@@ -100,7 +102,7 @@ def tile_yaw(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
         if m.size < MIN_PAIR_MODES * YAW_BANDS:
             continue
         # the image at r moves by omega (y, -x) px a frame: tile i past tile j by omega
-        # (dy, -dx), which turns the angle of a mode's cross-spectrum by -k . that
+        # (dy, -dx), which turns the angle of a mode's cross-spectrum by omega (ky dx - kx dy)
         dx = centres[i][0] - centres[j][0]
         dy = centres[i][1] - centres[j][1]
         geo = ky[m] * dx - kx[m] * dy

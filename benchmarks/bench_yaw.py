@@ -2,7 +2,7 @@
 
     python benchmarks/bench_yaw.py [--seeds 23,31] [--sequences 40] [--rates 10,30]
         [--frames 10] [--mode exact|blind] [--sea realistic|second] [--workers 1]
-        [--out FILE.json]
+        [--out FILE.json] [--plot FILE.png]
 
 Each sequence of the realistic renderer (256 px, altitude 1-15 m, wind 2-12 m/s, drift 0-1
 m/s, clean frames) is the sea in the axes of the clip's middle frame; a camera whose nose
@@ -12,7 +12,8 @@ through a turn) sampled where the middle frame sees each point (MAVLink's axes:
 same crop, no turn), is fitted as it is (``untold``) and with ``yaw_rate_dps`` given
 (``told``).  ``--mode exact`` gives the camera's velocity over the water; ``blind`` none.
 Per rate and case: relative MAE, median, trusted share, trusted windows more than 10 % off,
-3-sigma coverage.  ``--sea second`` takes the sea of ``bench_foreign_sea.py``'s independent
+3-sigma coverage; ``--plot`` draws the rates measured against those turned and each
+window's error, rate given or not.  ``--sea second`` takes the sea of ``bench_foreign_sea.py``'s independent
 generator instead (its clip ``seed + index``, 256 px, its own frame rate and focal length,
 the camera's velocity over the water given in exact mode; at most its 30 frames).  Exit
 code 0: a report, not a gate.
@@ -155,6 +156,55 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return table
 
 
+def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
+    """Two panels: the rate each window was turned back at against the camera's, rate not
+    given (the altimeter's own measurement); each window's relative error by rate, given and
+    not given, trusted windows filled."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rng = np.random.default_rng(0)
+    rates = sorted({r["rate_dps"] for r in rows})
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    untold = [r for r in rows if r["case"] == "untold"]
+    for trusted, style in ((False, {"facecolors": "none"}), (True, {})):
+        sel = [r for r in untold if r["trusted"] == trusted]
+        x = np.array([r["rate_dps"] for r in sel]) + rng.uniform(-0.6, 0.6, len(sel))
+        left.scatter(x, [r["yaw_rate_dps"] for r in sel], s=14, edgecolors="C0", **style,
+                     label="trusted" if trusted else "not trusted")
+    top = max(rates) * 1.1 + 1.0
+    left.plot([0, top], [0, top], color="0.5", lw=0.8, label="the camera's rate")
+    left.set_xlabel("camera's yaw rate, deg/s")
+    left.set_ylabel("rate turned back at (measured), deg/s")
+    left.set_title("rate not given: the turn measured")
+    left.legend(fontsize=8)
+    for k, (case, colour) in enumerate((("told", "C2"), ("untold", "C3"))):
+        for trusted in (False, True):
+            sel = [r for r in rows if r["case"] == case and r["trusted"] == trusted
+                   and (case == "untold" or r["rate_dps"] != 0.0)]
+            pos = [rates.index(r["rate_dps"]) + (k - 0.5) * 0.3 for r in sel]
+            x = np.array(pos) + rng.uniform(-0.08, 0.08, len(sel))
+            err = [max(abs(r["estimate_m"] / r["altitude_m"] - 1.0), 1e-4) * 100 for r in sel]
+            label = (f"rate {'given' if case == 'told' else 'not given'}"
+                     f"{', trusted' if trusted else ''}")
+            right.scatter(x, err, s=12, color=colour if trusted else "none",
+                          edgecolors=colour, label=label)
+    right.axhline(10.0, color="0.5", lw=0.8, ls="--")
+    right.set_yscale("log")
+    right.set_xticks(range(len(rates)), [f"{r:g}" for r in rates])
+    right.set_xlabel("camera's yaw rate, deg/s")
+    right.set_ylabel("|relative error|, %")
+    right.set_title("each window's error (dashed: 10 %)")
+    right.legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="23,31")
@@ -166,6 +216,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                     help="the realistic renderer's sea, or the independent generator's")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--plot", type=Path, help="a PNG of the rates measured and the errors")
     a = ap.parse_args(argv)
     try:
         a.seeds = tuple(int(s) for s in a.seeds.split(","))
@@ -202,6 +253,9 @@ def main(argv: list[str] | None = None) -> int:
         from wavealt.io import atomic_write_text
 
         atomic_write_text(a.out, json.dumps({**summary, "rows": rows}, indent=1) + "\n")
+    if a.plot is not None:
+        plot(rows, a.plot, f"{a.sea} sea, {a.mode}, {a.frames} frames, seeds "
+             f"{','.join(map(str, a.seeds))}, {a.sequences} sequences each")
     return 0
 
 

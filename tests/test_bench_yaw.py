@@ -75,3 +75,12 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
                                                           (10.0, "told")]
     assert all(r["altitude_m"] == sc.altitude_m for r in rows)
     assert rows[2]["yaw_rate_dps"] == 10.0  # told: the rate given, taken as the truth
+
+
+def test_plot_writes_a_png_of_a_run(tmp_path) -> None:
+    res = subprocess.run([sys.executable, str(BENCH), "--seeds", "101", "--sequences", "1",
+                          "--rates", "10", "--plot", str(tmp_path / "yaw.png"),
+                          "--out", str(tmp_path / "yaw.json")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert (tmp_path / "yaw.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -55,12 +55,13 @@ def _median(x: np.ndarray) -> float:
     return float((part[k - 1] + part[k]) / 2.0)
 
 
-def _unit_rate(d: np.ndarray, geo: np.ndarray, w: np.ndarray, kappa: np.ndarray) -> float:
+def _unit_rate(d: np.ndarray, geo: np.ndarray, w: np.ndarray, kappa: np.ndarray,
+               start: float = 0.0) -> float:
     """The rate of one unit: Tukey-weighted least squares through the origin of the wrapped
-    phase differences ``d`` on ``geo``, weights ``w``; first on the modes below 1 rad/px
-    (which wrap only at many times the rates of interest), then on all about that rate, the
-    residuals' scale (their MAD) taken once in each."""
-    om = 0.0
+    phase differences ``d`` on ``geo``, weights ``w``, from the rate ``start``; first on the
+    modes below 1 rad/px (which wrap only at many times the rates of interest), then on all
+    about that rate, the residuals' scale (their MAD) taken once in each."""
+    om = start
     low = kappa < 1.0
     phases = [(d, geo, w)]
     if int(low.sum()) >= MIN_PAIR_MODES // 2:
@@ -75,6 +76,15 @@ def _unit_rate(d: np.ndarray, geo: np.ndarray, w: np.ndarray, kappa: np.ndarray)
             tw = np.maximum(1.0 - u * u, 0.0) ** 2 * ww
             om += float(np.dot(tw * gg, r) / max(float(np.dot(tw * gg, gg)), 1e-30))
     return om
+
+
+def _wraps(rate: float, geo: np.ndarray) -> bool:
+    """Whether a turn of ``rate`` rad a frame moves the phase differences of most of a unit's
+    modes (``geo`` their lever, :func:`tile_yaw`) by more than a quarter turn."""
+    bound = 0.5 * np.pi
+    if abs(rate) * float(np.max(np.abs(geo))) <= bound:  # cheap: none does
+        return False
+    return abs(rate) * float(np.quantile(np.abs(geo), 0.9)) > bound
 
 
 def tile_yaw(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
@@ -95,7 +105,7 @@ def tile_yaw(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
     amp = np.einsum("itm,itm->im", mag[:, 1:], mag[:, :-1])
     coh = np.abs(cross) / np.maximum(amp, 1e-30)
     kappa = np.hypot(kx, ky)
-    ests = []
+    bands: list[list[tuple[np.ndarray, ...]]] = [[] for _ in range(YAW_BANDS)]
     for i, j in PAIRS:
         c = np.minimum(coh[i], coh[j])
         m = np.flatnonzero(c > MIN_COHERENCE)
@@ -111,8 +121,19 @@ def tile_yaw(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
         # bands of wavenumber: units that share no mode (a tile's window couples only
         # neighbouring modes)
         order = np.argsort(kappa[m], kind="stable")
-        for part in np.array_split(order, YAW_BANDS):
-            ests.append(_unit_rate(d[part], geo[part], w[part], kappa[m][part]))
+        for b, part in enumerate(np.array_split(order, YAW_BANDS)):
+            bands[b].append((d[part], geo[part], w[part], kappa[m][part]))
+    ests: list[float] = []
+    below = 0.0
+    for units in bands:
+        # A turn so fast that the band below's median rate wraps this band's phase
+        # differences (by a quarter turn on most of its modes): its units start from that
+        # rate, as from 0 their fits would find another; slower, from 0, so that no unit
+        # leans on the others' noise.
+        rates = [_unit_rate(*unit, start=below if _wraps(below, unit[1]) else 0.0)
+                 for unit in units]
+        ests += rates
+        below = float(np.median(rates)) if rates else below
     if len(ests) < 3:
         return math.nan, math.nan, len(ests)
     e = np.asarray(ests)

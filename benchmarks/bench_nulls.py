@@ -36,7 +36,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
-import multiprocessing  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from functools import partial  # noqa: E402
@@ -45,6 +44,8 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
+
+from wavealt.sim.cluster import TaskRunner, runner_spec  # noqa: E402
 
 KINDS = ("white", "shuffled", "frozen", "carried", "rotated")
 MODES = ("blind", "exact", "prior")
@@ -186,12 +187,9 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [(k, i, f) for k in a.kinds for f in a.frames for i in range(a.clips)]
     job = partial(run_clip, seed=a.seed, size=a.size)
     t0 = time.perf_counter()
-    if a.workers > 1:
-        with multiprocessing.get_context("spawn").Pool(a.workers) as pool:
-            parts = list(tqdm(pool.imap(job, tasks), total=len(tasks), desc="null clips",
-                              file=sys.stderr))
-    else:
-        parts = [job(t) for t in tqdm(tasks, desc="null clips", file=sys.stderr)]
+    with TaskRunner(runner_spec(workers=a.workers)) as runner:
+        parts = list(tqdm(runner.map(job, tasks), total=len(tasks), desc="null clips",
+                          file=sys.stderr))
     records = [r for part in parts for r in part]
     trusted = sum(r["trusted"] for r in records)
     summary = {"benchmark": "nulls", "command": " ".join(["python", *sys.argv]),

@@ -30,7 +30,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
-import multiprocessing  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from functools import partial  # noqa: E402
@@ -39,6 +38,8 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
+
+from wavealt.sim.cluster import TaskRunner, runner_spec  # noqa: E402
 
 RENDER_PX = 256
 CAMERA_PX = 176  # inside the render through any turn: 256 / sqrt(2) = 181
@@ -237,12 +238,9 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [(s, i) for s in a.seeds for i in range(a.sequences)]
     job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea)
     t0 = time.perf_counter()
-    if a.workers > 1:
-        with multiprocessing.get_context("spawn").Pool(a.workers) as pool:
-            parts = list(tqdm(pool.imap(job, tasks), total=len(tasks), desc="sequences",
-                              file=sys.stderr))
-    else:
-        parts = [job(t) for t in tqdm(tasks, desc="sequences", file=sys.stderr)]
+    with TaskRunner(runner_spec(workers=a.workers)) as runner:
+        parts = list(tqdm(runner.map(job, tasks), total=len(tasks), desc="sequences",
+                          file=sys.stderr))
     rows = [r for part in parts for r in part]
     summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),

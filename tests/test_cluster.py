@@ -150,3 +150,24 @@ def test_runner_spec_is_the_command_line():
     spec = runner_spec(scheduler="tcp://10.0.0.5:8786")
     assert (spec.kind, spec.address) == ("dask", "tcp://10.0.0.5:8786")
     assert runner_spec(scheduler="tls://[::1]:8786").kind == "dask"
+
+
+def _late_first(task: int) -> int:
+    """The earlier a task, the longer it takes: completion order is the reverse of theirs."""
+    import time
+
+    time.sleep(0.05 * (4 - task))
+    return task * task
+
+
+@pytest.mark.parametrize("kind", ["serial", "processes", "dask"])
+def test_map_yields_in_the_tasks_order_whatever_finishes_first(kind, scheduler) -> None:
+    from wavealt.sim.cluster import TaskRunner
+
+    spec = (runner_spec(workers=1) if kind == "serial"
+            else runner_spec(workers=2) if kind == "processes"
+            else runner_spec(scheduler=scheduler))
+    with TaskRunner(spec) as runner:
+        assert list(runner.map(_late_first, range(5))) == [0, 1, 4, 9, 16]
+        assert sorted(runner.map_unordered(_late_first, range(5))) == [0, 1, 4, 9, 16]
+        assert list(runner.map(_late_first, [])) == []

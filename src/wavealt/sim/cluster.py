@@ -2,7 +2,8 @@
 
 Every sequence has its own derived seed, so the work is independent tasks whose outputs
 do not depend on where or in which order they run. :class:`TaskRunner` maps a module-level
-function over picklable tasks and yields the results as they complete:
+function over picklable tasks and yields the results as they complete (or in the tasks'
+order):
 
 ``serial``       in this process (``--workers 1``)
 ``processes``    a ``multiprocessing`` pool of N processes (``--workers N``; forked where
@@ -148,6 +149,25 @@ class TaskRunner:
         if self._client is not None:
             return len(self._client.nthreads())
         return self.spec.workers
+
+    def map(self, fn: Callable[[Any], Any], tasks: Iterable[Any]) -> Iterator[Any]:
+        """``fn(task)`` for every task, yielded in the tasks' order (each as soon as it and
+        those before it are done); otherwise as :meth:`map_unordered`."""
+        tasks = list(tasks)
+        if not tasks:
+            return
+        if self._pool is not None:
+            yield from self._pool.imap(fn, tasks)
+        elif self._client is not None:
+            futures = self._client.map(fn, tasks, pure=False)
+            try:
+                for fut in futures:
+                    yield fut.result()
+            finally:
+                self._client.cancel(futures)
+        else:
+            for t in tasks:
+                yield fn(t)
 
     def map_unordered(self, fn: Callable[[Any], Any], tasks: Iterable[Any]) -> Iterator[Any]:
         """``fn(task)`` for every task, yielded as each completes. ``fn`` must be a

@@ -260,9 +260,9 @@ class _Trust:
         if min(shape) < 32:
             return None
         kx, ky, _, _, idx = self._plane(*shape)
-        if (p is not None and p.get("corners") and p.get("_series") is not None
-                and tuple(p["tile"]) == shape):
-            series, idx = p["_series"], p["_series_modes"]
+        series = _corner_series(p, shape)
+        if series is not None:
+            idx = p["_series_modes"]
         else:
             series = _windowed_modes(tiles, idx)
             series -= series.mean(axis=1, keepdims=True)
@@ -298,10 +298,7 @@ class _Trust:
         # the corner tiles' plane, ``max_modes`` of it, where ``p`` is not given)
         n_fit = (p["kappa"].size if p is not None
                  else self._plane(*tiles[0].shape[1:])[4].size)
-        series = None
-        if (p is not None and p["corners"] and p.get("_series") is not None
-                and tuple(p["tile"]) == tiles[0].shape[1:]):
-            series = p["_series"]
+        series = _corner_series(p, tiles[0].shape[1:])
         fits = []
         for i, (tile, (x, y)) in enumerate(zip(tiles, centres)):
             like = (None if series is None
@@ -434,6 +431,17 @@ class _Trust:
             # 3-sigma interval spans the whole altitude range searched
             res.altitude_std_m = max(res.altitude_std_m, (hi - lo) / 3.0)
         return res
+
+
+def _corner_series(p: dict[str, Any] | None, tile: tuple[int, int]) -> np.ndarray | None:
+    """The corner tiles' mode series (``(4, T, modes)``, of the plane's modes
+    ``p["_series_modes"]``) that periodogram ``p`` kept, where it was taken on corner tiles of
+    shape ``tile`` and kept them (a carried pattern's removal or a rolling shutter's does
+    not); else None."""
+    if (p is not None and p["corners"] and p.get("_series") is not None
+            and tuple(p["tile"]) == tuple(tile)):
+        return p["_series"]
+    return None
 
 
 def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LEVEL) -> float:

@@ -153,37 +153,27 @@ class TaskRunner:
     def map(self, fn: Callable[[Any], Any], tasks: Iterable[Any]) -> Iterator[Any]:
         """``fn(task)`` for every task, yielded in the tasks' order (each as soon as it and
         those before it are done); otherwise as :meth:`map_unordered`."""
-        tasks = list(tasks)
-        if not tasks:
-            return
-        if self._pool is not None:
-            yield from self._pool.imap(fn, tasks)
-        elif self._client is not None:
-            futures = self._client.map(fn, tasks, pure=False)
-            try:
-                for fut in futures:
-                    yield fut.result()
-            finally:
-                self._client.cancel(futures)
-        else:
-            for t in tasks:
-                yield fn(t)
+        return self._map(fn, tasks, ordered=True)
 
     def map_unordered(self, fn: Callable[[Any], Any], tasks: Iterable[Any]) -> Iterator[Any]:
         """``fn(task)`` for every task, yielded as each completes. ``fn`` must be a
         module-level function (it is pickled by name). The first task to fail raises its
         error here; the tasks not yet run are cancelled when the runner closes."""
+        return self._map(fn, tasks, ordered=False)
+
+    def _map(self, fn: Callable[[Any], Any], tasks: Iterable[Any],
+             ordered: bool) -> Iterator[Any]:
         tasks = list(tasks)
         if not tasks:
             return
         if self._pool is not None:
-            yield from self._pool.imap_unordered(fn, tasks)
+            yield from (self._pool.imap if ordered else self._pool.imap_unordered)(fn, tasks)
         elif self._client is not None:
             from distributed import as_completed
 
             futures = self._client.map(fn, tasks, pure=False)
             try:
-                for fut in as_completed(futures):
+                for fut in futures if ordered else as_completed(futures):
                     yield fut.result()
             finally:
                 self._client.cancel(futures)

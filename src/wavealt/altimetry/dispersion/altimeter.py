@@ -329,6 +329,15 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             if turn is not None:
                 res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
                               f"clip (give its yaw rate)")
+        shake = p.get("shake") if p is not None else None
+        if velocity_mps is not None and shake is not None:
+            # The frames were steadied (:mod:`.jitter`): the camera rolled or pitched over the
+            # clip, and the rotation's mean rate, which no steadying sees, moves the image
+            # as a velocity over the water would, which a velocity given does not hold (the
+            # first thing to mend, whatever else the fit shows).
+            res.reason = (f"the camera shook by {float(np.sqrt(np.mean(shake**2))):.1f} px "
+                          f"over the clip, and its turn moves the image as a velocity would "
+                          f"(give its attitude, or fit blind)")
         res.signal += "+unturned" if yaw != 0.0 else ""
         res.signal += f"+binned{binning}" if binning > 1 else ""
         res.yaw_rate_dps = yaw
@@ -378,6 +387,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         p = self._fit_periodogram(signal)
         res = self._fit_path(signal, p, fps, focal_px, prior)
         res.signal = f"{kind}/{res.signal or 'corners'}"
+        if p is not None and p.get("shake") is not None:
+            res.signal += "+steadied"
         return res, p
 
     def _fit_path(self, signal: np.ndarray, p: dict[str, Any] | None, fps: float,

@@ -227,7 +227,8 @@ class _Profile(_VelocityMap):
         # the profile's noise: the sd of its score under random phase steps
         noise = null_sd(p, sub)
         return {"logh": logh, "u": u, "z": significance(p, vals), "scan": scan,
-                "interior": interior, "prominence": prominence, "prominence_z": prominence / max(noise, 1e-30),
+                "interior": interior, "prominence": prominence,
+                "prominence_z": prominence / max(noise, 1e-30),
                 "local": local, "vals": vals, "ridge": (grid, ridge),
                 "band_log": paired_band(grid, ridge, i)}
 

@@ -353,7 +353,7 @@ def peak_prominences(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         right = p
         while right < n - 1 and v[right + 1] <= top:
             right += 1
-        prom[k] = y[p] - max(y[left:p + 1].min(), y[p:right + 1].min())
+        prom[k] = top - max(min(v[left:p + 1]), min(v[p:right + 1]))
     return np.asarray(peaks, dtype=np.intp), prom
 
 

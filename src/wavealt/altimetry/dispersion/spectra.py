@@ -12,7 +12,12 @@ import numpy as np
 import scipy.fft
 
 from wavealt._checks import check_finite_number
-from wavealt.altimetry.dispersion.constants import MIN_FIT_MODES, STATIC_NORM_FRACTION
+from wavealt.altimetry.dispersion.constants import (
+    JITTER_MIN_FRAMES,
+    MIN_FIT_MODES,
+    STATIC_NORM_FRACTION,
+)
+from wavealt.altimetry.dispersion.jitter import remove_shake
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
 #: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
@@ -307,7 +312,9 @@ class _Spectra:
         the same ``signal`` on the same tiles, whose mode series (``p["_series"]``, of the
         plane's modes ``p["_series_modes"]``) are taken instead of transforming the tiles
         again, where they hold every mode this one needs.  ``max_modes``: at most this many
-        modes (default ``self.max_modes``).
+        modes (default ``self.max_modes``).  ``p["shake"]``: the image shift per frame
+        that a shaking camera gave the corner tiles and that was removed (:mod:`.jitter`),
+        None where none was.
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
@@ -318,16 +325,16 @@ class _Spectra:
         if like is not None and like["corners"] == corners and like["frames"] == t:
             series = (like.get("_series"), like.get("_series_modes"))
         limit = self.max_modes if max_modes is None else max_modes
-        q, kx, ky, kappa, series, modes = self._share_table(parts, basis, denom, limit,
-                                                            carried, series)
+        q, kx, ky, kappa, series, modes, shake = self._share_table(
+            parts, basis, denom, limit, carried, series, like and like.get("shake"))
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
                 "tile": parts[0].shape[1:], "carried": carried, "_series": series,
-                "_series_modes": modes}
+                "_series_modes": modes, "shake": shake}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
-                     series: tuple[np.ndarray | None, np.ndarray | None] | None = None
-                     ) -> tuple[Any, ...]:
+                     series: tuple[np.ndarray | None, np.ndarray | None] | None = None,
+                     shaken: np.ndarray | None = None) -> tuple[Any, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts; the modes' ``kx, ky, kappa``; the parts' mean-free mode series
@@ -337,13 +344,18 @@ class _Spectra:
         removed first (:func:`_remove_carried`).  ``series``: ``(series, their modes)`` of
         the same parts, already taken, used where they hold every mode (a copy is
         changed).  Frames read by a rolling shutter (:data:`ROLLING`, once a first fit gave
-        a velocity) take :meth:`_rolled_share_table`."""
+        a velocity) take :meth:`_rolled_share_table`.  The four corner tiles' series of a
+        clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first: the image shift
+        they share, a shaking camera's, is removed (:func:`.jitter.remove_shake`); the
+        shake removed, ``(T, 2)`` px, is the last of the returned values (None for none;
+        for ``series`` given, ``shaken``, theirs)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
         if rolling is not None and rolling[1] is not None:
-            return self._rolled_share_table(parts, basis, denom, idx, rolling, carried)
+            return (*self._rolled_share_table(parts, basis, denom, idx, rolling, carried), None)
         given, pos = _modes_within(series, (len(parts), t), idx)
+        shake = shaken if given is not None else None  # given series: steadied as they were
         if given is not None:
             # a mode's series and mean are its own: taken from the same transform they are
             # the same bits (copied where the carried pattern's removal changes them)
@@ -355,6 +367,10 @@ class _Spectra:
             g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
             # the temporal mean of every pixel, removed where it is cheap: per selected mode
             g -= g.mean(axis=1, keepdims=True)
+            if len(parts) == 4 and t >= JITTER_MIN_FRAMES:
+                # a shaking camera: the image shift the corner tiles share, removed
+                # (:mod:`.jitter`)
+                g, shake = remove_shake(g, kx[idx], ky[idx])
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
@@ -374,7 +390,8 @@ class _Spectra:
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
-                None if carried is not None else g, None if carried is not None else modes)
+                None if carried is not None else g, None if carried is not None else modes,
+                shake)
 
     def _rolled_share_table(self, parts: list[np.ndarray], basis: np.ndarray,
                             denom: np.ndarray, idx: np.ndarray,

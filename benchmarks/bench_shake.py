@@ -30,7 +30,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -39,12 +38,18 @@ from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_yaw import CAMERA_PX, SEAS  # noqa: E402
+from bench_yaw import (  # noqa: E402
+    CAMERA_PX,
+    SEAS,
+    check_sea_args,
+    report,
+    run_rows,
+    sea_parser,
+    summarise,
+)
 
-from wavealt.sim.cluster import TaskRunner, runner_spec  # noqa: E402
 
 #: The shake's frequencies, Hz (a multirotor's attitude loop, a boat's roll in a chop).
 SHAKE_HZ = (0.7, 2.0)
@@ -117,73 +122,30 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
     return out
 
 
-def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    table: dict[str, Any] = {}
-    for amp, case in sorted({(r["amplitude_deg"], r["case"]) for r in rows}):
-        sel = [r for r in rows if r["amplitude_deg"] == amp and r["case"] == case]
-        h = np.array([r["altitude_m"] for r in sel])
-        est = np.array([r["estimate_m"] for r in sel])
-        sd = np.array([r["std_m"] for r in sel])
-        tr = np.array([r["trusted"] for r in sel])
-        rel = np.abs(est - h) / h
-        table[f"{amp:g}/{case}"] = {
-            "windows": len(sel), "rel_mae_pct": round(100 * float(rel.mean()), 2),
-            "median_abs_rel_pct": round(100 * float(np.median(rel)), 2),
-            "trusted_share": round(float(tr.mean()), 3),
-            "trusted_off_10pct": int(np.sum(tr & (rel > 0.1))),
-            "coverage_3sigma": round(float(np.mean(np.abs(est - h) <= 3 * sd)), 3),
-            "steadied_share": round(float(np.mean([r["steadied"] for r in sel])), 3),
-            "latency_ms_median": round(float(np.median([r["ms"] for r in sel])), 1)}
-    return table
-
-
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", default="23,31")
-    ap.add_argument("--sequences", type=int, default=40)
+    ap = sea_parser(frames=30, mode="blind")
+    ap.description = __doc__.split("\n\n")[0]
     ap.add_argument("--amplitudes", default="0.5,1",
                     help="roll and pitch amplitudes, degrees, comma-separated")
-    ap.add_argument("--frames", type=int, default=30)
-    ap.add_argument("--mode", choices=("exact", "blind"), default="blind")
-    ap.add_argument("--sea", choices=tuple(SEAS), default="realistic",
-                    help="the realistic renderer's sea, or the independent generator's")
-    ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
-    try:
-        a.seeds = tuple(int(s) for s in a.seeds.split(","))
-        a.amplitudes = tuple(float(r) for r in a.amplitudes.split(","))
-    except ValueError:
-        ap.error("--seeds and --amplitudes must be numbers separated by commas")
+    a.amplitudes = check_sea_args(ap, a, a.amplitudes, "amplitudes")
     if any(not (math.isfinite(r) and 0 < r <= 5) for r in a.amplitudes):
         ap.error(f"--amplitudes must be in (0, 5] degrees; got {a.amplitudes}")
-    if a.sequences < 1 or a.workers < 1 or a.frames < 3:
-        ap.error("--sequences and --workers must be at least 1, --frames at least 3")
-    if a.sea == "second" and a.frames > 30:
-        ap.error(f"--frames must be at most 30 with --sea second; got {a.frames}")
     return a
 
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
-    tasks = [(s, i) for s in a.seeds for i in range(a.sequences)]
     job = partial(run_sequence, amplitudes=a.amplitudes, frames=a.frames, mode=a.mode,
                   sea_name=a.sea)
-    t0 = time.perf_counter()
-    with TaskRunner(runner_spec(workers=a.workers)) as runner:
-        parts = list(tqdm(runner.map(job, tasks), total=len(tasks), desc="sequences",
-                          file=sys.stderr))
-    rows = [r for part in parts for r in part]
+    rows, seconds = run_rows(a, job)
     summary = {"benchmark": "shake", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences,
                "amplitudes_deg": list(a.amplitudes), "shake_hz": list(SHAKE_HZ),
                "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
-               "by_amplitude": summarise(rows), "seconds": round(time.perf_counter() - t0, 1)}
-    print(json.dumps(summary, indent=1))
-    if a.out is not None:
-        from wavealt.io import atomic_write_text
-
-        atomic_write_text(a.out, json.dumps({**summary, "rows": rows}, indent=1) + "\n")
+               "by_amplitude": summarise(rows, "amplitude_deg", ("steadied",)),
+               "seconds": seconds}
+    report(a, summary, rows)
     return 0
 
 

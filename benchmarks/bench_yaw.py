@@ -13,10 +13,10 @@ same crop, no turn), is fitted as it is (``untold``) and with ``yaw_rate_dps`` g
 (``told``).  ``--mode exact`` gives the camera's velocity over the water; ``blind`` none.
 Per rate and case: relative MAE, median, trusted share, trusted windows more than 10 % off,
 3-sigma coverage; ``--plot`` draws the rates measured against those turned and each
-window's error, rate given or not.  ``--sea second`` takes the sea of ``bench_foreign_sea.py``'s independent
-generator instead (its clip ``seed + index``, 256 px, its own frame rate and focal length,
-the camera's velocity over the water given in exact mode; at most its 30 frames).  Exit
-code 0: a report, not a gate.
+window's error, rate given or not.  ``--sea second`` takes the sea of
+``bench_foreign_sea.py``'s independent generator instead (its clip ``seed + index``, 256
+px, its own frame rate and focal length, the camera's velocity over the water given in
+exact mode; at most its 30 frames).  Exit code 0: a report, not a gate.
 """
 
 from __future__ import annotations
@@ -137,11 +137,16 @@ def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
     return out
 
 
-def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+def summarise(rows: list[dict[str, Any]], key: str = "rate_dps",
+              flags: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Per value of the rows' ``key`` and case (``"<value>/<case>"``): relative MAE, median,
+    trusted share, trusted windows more than 10 % off, 3-sigma coverage, median latency;
+    and for each boolean row field of ``flags`` the share of rows where it holds
+    (``<flag>_share``)."""
     table: dict[str, Any] = {}
-    keys = sorted({(r["rate_dps"], r["case"]) for r in rows})
+    keys = sorted({(r[key], r["case"]) for r in rows})
     for rate, case in keys:
-        sel = [r for r in rows if r["rate_dps"] == rate and r["case"] == case]
+        sel = [r for r in rows if r[key] == rate and r["case"] == case]
         h = np.array([r["altitude_m"] for r in sel])
         est = np.array([r["estimate_m"] for r in sel])
         sd = np.array([r["std_m"] for r in sel])
@@ -153,6 +158,8 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "trusted_share": round(float(tr.mean()), 3),
             "trusted_off_10pct": int(np.sum(tr & (rel > 0.1))),
             "coverage_3sigma": round(float(np.mean(np.abs(est - h) <= 3 * sd)), 3),
+            **{f"{flag}_share": round(float(np.mean([r[flag] for r in sel])), 3)
+               for flag in flags},
             "latency_ms_median": round(float(np.median([r["ms"] for r in sel])), 1)}
     return table
 
@@ -206,51 +213,77 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+def sea_parser(frames: int, mode: str) -> argparse.ArgumentParser:
+    """The options this benchmark and ``bench_shake.py`` share: seeds, sequences, frames,
+    mode, sea, workers and the output file."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="23,31")
     ap.add_argument("--sequences", type=int, default=40)
-    ap.add_argument("--rates", default="10,30", help="yaw rates, deg/s, comma-separated")
-    ap.add_argument("--frames", type=int, default=10)
-    ap.add_argument("--mode", choices=("exact", "blind"), default="exact")
+    ap.add_argument("--frames", type=int, default=frames)
+    ap.add_argument("--mode", choices=("exact", "blind"), default=mode)
     ap.add_argument("--sea", choices=tuple(SEAS), default="realistic",
                     help="the realistic renderer's sea, or the independent generator's")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path)
-    ap.add_argument("--plot", type=Path, help="a PNG of the rates measured and the errors")
-    a = ap.parse_args(argv)
+    return ap
+
+
+def check_sea_args(ap: argparse.ArgumentParser, a: argparse.Namespace, values: str,
+                   name: str) -> tuple[float, ...]:
+    """Parse ``a.seeds`` in place and return the numbers of the comma-separated option
+    ``values`` (``--name``); exits with a one-line error where an option is out of range."""
     try:
         a.seeds = tuple(int(s) for s in a.seeds.split(","))
-        a.rates = tuple(float(r) for r in a.rates.split(","))
+        numbers = tuple(float(r) for r in values.split(","))
     except ValueError:
-        ap.error("--seeds and --rates must be numbers separated by commas")
-    if any(not (math.isfinite(r) and 0 < abs(r) <= 180) for r in a.rates):
-        ap.error(f"--rates must be non-zero and within +-180 deg/s; got {a.rates}")
+        ap.error(f"--seeds and --{name} must be numbers separated by commas")
     if a.sequences < 1 or a.workers < 1 or a.frames < 3:
         ap.error("--sequences and --workers must be at least 1, --frames at least 3")
     if a.sea == "second" and a.frames > 30:
         ap.error(f"--frames must be at most 30 with --sea second; got {a.frames}")
-    return a
+    return numbers
 
 
-def main(argv: list[str] | None = None) -> int:
-    a = parse_args(argv)
+def run_rows(a: argparse.Namespace, job: Any) -> tuple[list[dict[str, Any]], float]:
+    """``job`` over every (seed, sequence) of ``a`` on its workers: the rows, in order, and
+    the seconds it took."""
     tasks = [(s, i) for s in a.seeds for i in range(a.sequences)]
-    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea)
     t0 = time.perf_counter()
     with TaskRunner(runner_spec(workers=a.workers)) as runner:
         parts = list(tqdm(runner.map(job, tasks), total=len(tasks), desc="sequences",
                           file=sys.stderr))
-    rows = [r for part in parts for r in part]
-    summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
-               "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),
-               "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
-               "by_rate": summarise(rows), "seconds": round(time.perf_counter() - t0, 1)}
+    return [r for part in parts for r in part], round(time.perf_counter() - t0, 1)
+
+
+def report(a: argparse.Namespace, summary: dict[str, Any], rows: list[dict[str, Any]]) -> None:
+    """Print ``summary`` as JSON; with ``--out``, write it with the ``rows`` too."""
     print(json.dumps(summary, indent=1))
     if a.out is not None:
         from wavealt.io import atomic_write_text
 
         atomic_write_text(a.out, json.dumps({**summary, "rows": rows}, indent=1) + "\n")
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    ap = sea_parser(frames=10, mode="exact")
+    ap.add_argument("--rates", default="10,30", help="yaw rates, deg/s, comma-separated")
+    ap.add_argument("--plot", type=Path, help="a PNG of the rates measured and the errors")
+    a = ap.parse_args(argv)
+    a.rates = check_sea_args(ap, a, a.rates, "rates")
+    if any(not (math.isfinite(r) and 0 < abs(r) <= 180) for r in a.rates):
+        ap.error(f"--rates must be non-zero and within +-180 deg/s; got {a.rates}")
+    return a
+
+
+def main(argv: list[str] | None = None) -> int:
+    a = parse_args(argv)
+    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea)
+    rows, seconds = run_rows(a, job)
+    summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
+               "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),
+               "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
+               "by_rate": summarise(rows), "seconds": seconds}
+    report(a, summary, rows)
     if a.plot is not None:
         plot(rows, a.plot, f"{a.sea} sea, {a.mode}, {a.frames} frames, seeds "
              f"{','.join(map(str, a.seeds))}, {a.sequences} sequences each")

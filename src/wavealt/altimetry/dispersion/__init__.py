@@ -88,6 +88,15 @@ The difference of two tiles' phase steps on a mode holds the turn and nothing of
 (:func:`wavealt.camera.unturn_yaw`) and fitted again, and a turn still shown is not
 trusted.  A yaw rate given is taken as the truth.
 
+A camera that rolls and pitches back and forth (no gimbal) moves the whole image by a
+shift that changes from frame to frame.  Every mode of a tile moves with it, so each
+mode's phase step departs from its steady one by ``-kappa . (s_{t+1} - s_t)``, one
+regression per frame over the modes (:mod:`.jitter`); where the four corner tiles agree on
+the shift, it is taken out of their mode series before the periodogram (``+steadied``).
+The rotation's mean rate over the clip moves the image as a drift does, which a blind fit
+takes into its velocity and a velocity given does not hold: exact and prior fits of
+steadied frames are not trusted.
+
 References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
 image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;
 Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with the shell;

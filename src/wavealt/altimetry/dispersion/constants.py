@@ -131,15 +131,18 @@ YAW_BANDS = 2
 #: 30 (30 frames), on the second generator's faint seas 2-4.  Blind 1-s relative MAE,
 #: realistic, half a degree: 28.0 % left shaking; steadied at a bar of 5 / 10 / 20, 8.3 /
 #: 10.5 / 16.2 %.  At 10 frames the still cameras' ratio reaches 5, the shaken realistic
-#: seas' 3.6 (median): a shake that short is mostly a steady turn, which the velocity takes
-#: up in a blind fit and which a velocity given does not hold (exact and prior fits of
-#: steadied frames are not trusted).
+#: seas' 3.6 (median), and steadying cost the exact fits 2.8 ms: a shake that short is
+#: mostly a steady turn, which a blind fit's velocity takes up and a velocity given does
+#: not hold (exact and prior fits of steadied frames are not trusted).
 JITTER_MAX_KAPPA = 1.0
+#: ... on at most this many of them, the tiles' strongest (the shift's precision is set by
+#: the strong modes; the regression's cost by their number).
+JITTER_MODES = 400
 #: The modes the shake is read on turn at least this many cycles over the clip (their
 #: steady step): a mean-free series that turns less has lost most of itself with its mean.
 JITTER_MIN_TURNS = 1.0
 JITTER_MIN_RATIO = 8.0
-JITTER_MIN_FRAMES = 10
+JITTER_MIN_FRAMES = 15
 JITTER_PASSES = 3
 #: Times the frames are turned back at the rate their corner tiles show and fitted again:
 #: the rate read on turning frames is 10-20 % low (realistic preset, tuning seeds), and a

@@ -30,6 +30,7 @@ import numpy as np
 from wavealt.altimetry.dispersion.constants import (
     JITTER_MAX_KAPPA,
     JITTER_MIN_TURNS,
+    JITTER_MODES,
     JITTER_MIN_RATIO,
     JITTER_PASSES,
 )
@@ -40,7 +41,17 @@ _TUKEY_STEPS = 4
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:
-    return (x + np.pi) % (2.0 * np.pi) - np.pi
+    """``x`` to (-pi, pi] (a rounding, cheaper than a remainder)."""
+    return x - np.float32(2.0 * np.pi) * np.round(x * np.float32(0.5 / np.pi))
+
+
+def _phasor(phase: np.ndarray) -> np.ndarray:
+    """``exp(i phase)`` in single precision (float32 sine and cosine, no complex128)."""
+    phase = phase.astype(np.float32)
+    out = np.empty(phase.shape, dtype=np.complex64)
+    out.real = np.cos(phase)
+    out.imag = np.sin(phase)
+    return out
 
 
 def tile_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
@@ -48,53 +59,72 @@ def tile_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray
     series ``series`` ``(T, modes)`` complex of wavenumbers ``kx, ky`` (rad/px), less its
     mean motion over the clip (no trend, mean zero); zeros where too few modes hold a
     steady phase step."""
-    t = series.shape[0]
-    use = np.hypot(kx, ky) <= JITTER_MAX_KAPPA
-    x = series[:, use].astype(np.complex128)
-    ax, ay = kx[use], ky[use]
-    shift = np.zeros((t, 2))
+    return _shakes(series[None], kx, ky)[0]
+
+
+def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
+    """:func:`tile_shake` of each of the tiles ``series`` ``(tiles, T, modes)``, at once:
+    ``(tiles, T, 2)``."""
+    n, t = series.shape[:2]
+    use = np.flatnonzero(np.hypot(kx, ky) <= JITTER_MAX_KAPPA)
+    x = series[:, :, use].astype(np.complex64)
+    if use.size > JITTER_MODES:  # the tiles' strongest modes carry the shift
+        power = (x.real**2 + x.imag**2).sum(axis=(0, 1))
+        keep = np.sort(np.argpartition(power, -JITTER_MODES)[-JITTER_MODES:])
+        x, use = x[:, :, keep], use[keep]
+    ax, ay = kx[use].astype(np.float32), ky[use].astype(np.float32)
+    shift = np.zeros((n, t, 2))
     if t < 4 or ax.size < 8:
         return shift
-    lag = x[1:] * np.conj(x[:-1])  # (T-1, modes)
-    c = lag.sum(axis=0)
+    lag = x[:, 1:] * np.conj(x[:, :-1])  # (tiles, T-1, modes)
+    c = lag.sum(axis=1, keepdims=True)
     power = np.abs(lag)
-    coherence = np.abs(c) / np.maximum(power.sum(axis=0), 1e-300)
-    resid = np.angle(lag * np.conj(c)[None, :])  # -k . e_t, wrapped
+    coherence = np.abs(c) / np.maximum(power.sum(axis=1, keepdims=True), 1e-300)
     # The series are mean-free, and a steady phasor of step psi less its mean over the
     # clip steps unevenly: its mean, D(psi) / T of it (D Dirichlet's kernel), has a phase
     # fixed by psi alone, so every mode of that step leans the same way at the same frame,
     # in every tile.  Each mode's residual is taken against that of its own steady phasor,
     # made mean-free the same way; those that turn too little to read (within
     # ``JITTER_MIN_TURNS`` cycles of standing still) are left out.
-    psi = np.angle(c)
-    frames = np.arange(t, dtype=np.float64)[:, None]
-    model = np.exp(1j * psi[None, :] * frames)
-    model -= model.mean(axis=0)
-    mlag = model[1:] * np.conj(model[:-1])
-    resid = _wrap(resid - np.angle(mlag * np.conj(mlag.sum(axis=0))[None, :]))
-    kept = (np.abs(psi) >= JITTER_MIN_TURNS * 2.0 * np.pi / t).astype(np.float64)
-    w0 = power * (coherence**2 * kept)[None, :]
-    e = np.zeros((t - 1, 2))
+    psi = np.angle(c)  # (tiles, 1, modes)
+    model = _phasor(psi * np.arange(t, dtype=np.float32)[None, :, None])
+    model -= model.mean(axis=1, keepdims=True)
+    mlag = model[:, 1:] * np.conj(model[:, :-1])
+    # -k . e_t, wrapped: each pair's step against its mode's steady step and its lean
+    resid = np.angle(lag * np.conj(c) * np.conj(mlag * np.conj(mlag.sum(axis=1, keepdims=True))))
+    kept = np.abs(psi) >= JITTER_MIN_TURNS * 2.0 * np.pi / t
+    w0 = power * (coherence**2 * kept)
+    e = np.zeros((n, t - 1, 2), dtype=np.float32)
     for step in range(_TUKEY_STEPS + 1):  # least squares, then reweighted (Tukey)
-        r = _wrap(resid + ax[None, :] * e[:, :1] + ay[None, :] * e[:, 1:])
+        ex, ey = e[..., :1], e[..., 1:]
+        r = _wrap(resid + ax * ex + ay * ey)
         w = w0
         if step:
-            scale = 1.4826 * np.median(np.abs(r), axis=1, keepdims=True) + 1e-12
+            # the residuals' scale: the median absolute residual of every other mode
+            scale = (np.float32(1.4826) * np.median(np.abs(r[..., ::2]), axis=-1, keepdims=True)
+                     + np.float32(1e-12))
             u = r / (_TUKEY * scale)
             w = w0 * np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
-        base = r - ax[None, :] * e[:, :1] - ay[None, :] * e[:, 1:]  # resid, unwrapped near e
-        sxx, sxy, syy = (w * ax * ax).sum(1), (w * ax * ay).sum(1), (w * ay * ay).sum(1)
-        bx, by = -(w * ax * base).sum(1), -(w * ay * base).sum(1)
+        base = r - ax * ex - ay * ey  # resid, unwrapped near e
+        wx, wy = w * ax, w * ay
+        sxx, sxy, syy = ((wx * ax).sum(-1, dtype=np.float64), (wx * ay).sum(-1, dtype=np.float64),
+                         (wy * ay).sum(-1, dtype=np.float64))
+        bx, by = -(wx * base).sum(-1, dtype=np.float64), -(wy * base).sum(-1, dtype=np.float64)
         det = sxx * syy - sxy * sxy
         ok = det > 1e-12 * np.maximum(sxx * syy, 1e-300)
-        e = np.where(ok[:, None], np.stack([(syy * bx - sxy * by), (sxx * by - sxy * bx)], 1)
-                     / np.where(ok, det, 1.0)[:, None], 0.0)
-    e -= e.mean(axis=0)
-    shift[1:] = np.cumsum(e, axis=0)
-    frames = np.arange(t, dtype=np.float64)  # (T,)
-    for c_ in range(2):  # no trend: the mean motion is the drift's
-        shift[:, c_] -= np.polyval(np.polyfit(frames, shift[:, c_], 1), frames)
-    return shift
+        safe = np.where(ok, det, 1.0)
+        e = np.where(ok[..., None], np.stack([(syy * bx - sxy * by) / safe,
+                                              (sxx * by - sxy * bx) / safe], -1),
+                     0.0).astype(np.float32)
+    e = e.astype(np.float64)
+    e -= e.mean(axis=1, keepdims=True)
+    shift[:, 1:] = np.cumsum(e, axis=1)
+    # no trend: the mean motion is the drift's (least-squares line over the frames)
+    frames = np.arange(t, dtype=np.float64) - (t - 1) / 2.0
+    mean = shift.mean(axis=1, keepdims=True)
+    slope = (frames[None, :, None] * (shift - mean)).sum(axis=1, keepdims=True) / np.sum(
+        frames**2)
+    return shift - mean - slope * frames[None, :, None]
 
 
 def common_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
@@ -103,7 +133,7 @@ def common_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
     px (their mean, :func:`tile_shake`), and how far it stands above the tiles' own noise:
     its mean square over that of the mean's noise (the tiles' scatter about the mean over
     their number; about 1 where no shake is shared)."""
-    shakes = np.stack([tile_shake(s, kx, ky) for s in series])
+    shakes = _shakes(series, kx, ky)
     n = shakes.shape[0]
     mean = shakes.mean(axis=0)
     if n < 2:
@@ -126,7 +156,7 @@ def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
         if total is None and ratio < JITTER_MIN_RATIO:
             break  # no shake the tiles agree on (later passes refine the one found)
         phase = kx[None, :] * shake[:, :1] + ky[None, :] * shake[:, 1:]  # (T, modes)
-        out = out * np.exp(1j * phase).astype(np.complex64)[None]
+        out = out * _phasor(phase)[None]
         out -= out.mean(axis=1, keepdims=True)
         total = shake if total is None else total + shake
     return out, total

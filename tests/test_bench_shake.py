@@ -1,0 +1,80 @@
+"""``benchmarks/bench_shake.py``: its shaking camera is the one a frame-by-frame levelling
+at the attitude undoes, its shakes repeat per sequence, and bad options are refused in one
+line."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_shake.py"
+
+
+def _module():
+    sys.path.insert(0, str(BENCH.parent))
+    spec = importlib.util.spec_from_file_location("bench_shake", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_shaken_view_levelled_at_its_attitude_is_the_level_view() -> None:
+    """A camera at a degree of roll and pitch sees the level frame moved by about the focal
+    length times the angle; levelled frame by frame at its attitude (``NadirView``, as
+    ``wavealt altitude --attitude`` does) both frames match the level camera's view, at one
+    offset for both (the levelled view is centred on the mean attitude's axis)."""
+    import scipy.ndimage as ndi
+
+    from wavealt.camera import NadirView, pinhole
+
+    mod = _module()
+    rng = np.random.default_rng(0)
+    sea = ndi.gaussian_filter(rng.normal(size=(2, 160, 160)), (0, 5, 5)).astype(np.float32)
+    focal = 120.0
+    att = np.array([[1.0, 1.0], [-1.0, 0.5]])
+    clip = mod.shaken_view(sea, att, focal, 96)
+    level = mod.shaken_view(sea, np.zeros((2, 2)), focal, 96)
+    scale = float(np.std(level))
+    assert float(np.max(np.abs(clip - level)[:, 24:72, 24:72])) / scale > 1.0  # it moved
+
+    def levelled(attitudes: np.ndarray) -> float:
+        """How far the clip levelled at ``attitudes`` is from the level view (both frames,
+        at their best common whole-pixel offset)."""
+        view = NadirView(pinhole(96, 96, focal), 96, 96, roll_deg=attitudes[:, 0],
+                         pitch_deg=attitudes[:, 1])
+        back = view(clip)
+        h, w = back.shape[1:]
+        return min(float(np.max(np.abs(
+            back[:, h // 2 - 16 + dy:h // 2 + 16 + dy, w // 2 - 16 + dx:w // 2 + 16 + dx]
+            - level[:, 32:64, 32:64]))) / scale for dx in range(-3, 4) for dy in range(-3, 4))
+
+    assert levelled(att) < 0.2
+    assert levelled(-att) > 0.5  # the attitude the other way does not level it
+
+
+def test_the_shake_repeats_per_sequence_and_scales_with_the_amplitude() -> None:
+    mod = _module()
+    a = mod.shake_attitudes(23, 4, 0.5, 30, 30.0)
+    b = mod.shake_attitudes(23, 4, 1.0, 30, 30.0)
+    assert a.shape == (30, 2) and np.allclose(b, 2.0 * a)
+    assert np.abs(a).max() <= 0.5 and np.abs(a).max() > 0.2
+    assert not np.allclose(a, mod.shake_attitudes(23, 5, 0.5, 30, 30.0))
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
+    (("--amplitudes", "9"), "--amplitudes must be in (0, 5]"),
+    (("--seeds", "a"), "--seeds and --amplitudes must be numbers"),
+    (("--mode", "prior"), "invalid choice: 'prior'"),
+    (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
+])
+def test_bad_options_are_refused_in_one_line(args, message) -> None:
+    res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2
+    assert message in res.stderr.strip().splitlines()[-1]

@@ -172,3 +172,13 @@ def test_a_velocity_given_is_not_trusted_through_a_shake() -> None:
     assert "+steadied" in res.signal and not res.trusted
     assert "shook" in res.reason
     assert_honest(res, 4.0)
+
+
+def test_tiles_without_waves_are_not_steadied() -> None:
+    """Two tiles flat (a sky's glare), two shaken: no mode of a flat tile has a phase, and
+    nothing undefined reaches the shake (the estimate stays finite or is not taken)."""
+    series, kx, ky = _series(_sway(30, 2.0), np.random.default_rng(4))
+    series[:2] = 0.0
+    out, removed = remove_shake(series, kx, ky)
+    assert np.all(np.isfinite(out))
+    assert removed is None or np.all(np.isfinite(removed))

@@ -79,7 +79,7 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
     lag = x[:, 1:] * np.conj(x[:, :-1])  # (tiles, T-1, modes)
     c = lag.sum(axis=1, keepdims=True)
     power = np.abs(lag)
-    coherence = np.abs(c) / np.maximum(power.sum(axis=1, keepdims=True), 1e-300)
+    coherence = np.abs(c) / np.maximum(power.sum(axis=1, keepdims=True), np.float32(1e-30))
     # The series are mean-free, and a steady phasor of step psi less its mean over the
     # clip steps unevenly: its mean, D(psi) / T of it (D Dirichlet's kernel), has a phase
     # fixed by psi alone, so every mode of that step leans the same way at the same frame,
@@ -153,7 +153,7 @@ def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
     out = series
     for _ in range(JITTER_PASSES):
         shake, ratio = common_shake(out, kx, ky)
-        if total is None and ratio < JITTER_MIN_RATIO:
+        if not np.all(np.isfinite(shake)) or (total is None and not ratio >= JITTER_MIN_RATIO):
             break  # no shake the tiles agree on (later passes refine the one found)
         phase = kx[None, :] * shake[:, :1] + ky[None, :] * shake[:, 1:]  # (T, modes)
         out = out * _phasor(phase)[None]

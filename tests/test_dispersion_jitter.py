@@ -182,3 +182,36 @@ def test_tiles_without_waves_are_not_steadied() -> None:
     out, removed = remove_shake(series, kx, ky)
     assert np.all(np.isfinite(out))
     assert removed is None or np.all(np.isfinite(removed))
+
+
+def test_the_command_line_reports_the_shake_it_took_out(tmp_path, run_cli) -> None:
+    """A frame folder of a camera shaking by half a degree, fitted blind: the JSON's
+    ``shake_px`` is the shake taken out (about the focal length times the angle), the text
+    says so, and ``altitude.csv`` holds it; a level camera's is 0 and the text is silent."""
+    import csv
+    import json
+
+    from wavealt.io import write_frames_folder
+
+    cfg = preset_config("realistic", size=256, frames=30, seed=4, altitude_m=(4.0, 4.0),
+                        wind_speed_mps=(8.0, 8.0), camera_speed_mps=(0.4, 0.4))
+    sea = generate_sequence(cfg.sample_scenario(0), cfg).clean.mean(axis=-1)
+    for amp, name in ((0.5, "shaken"), (0.0, "level")):
+        grey = np.clip(_shaken(sea, cfg.focal_px, amp, 176), 0.0, 1.0)
+        write_frames_folder(tmp_path / name, np.repeat(grey[..., None], 3, axis=-1))
+        args = ["altitude", str(tmp_path / name), "--fps", str(cfg.fps), "--focal-px",
+                str(cfg.focal_px)]
+        code, out, err = run_cli([*args, "--json"])
+        assert code == 0, err
+        summary = json.loads(out)
+        code, text, err = run_cli([*args, "--out", str(tmp_path / f"out-{name}")])
+        assert code == 0, err
+        with open(tmp_path / f"out-{name}" / "altitude.csv", newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        assert float(rows[0]["shake_px"]) == pytest.approx(summary["shake_px"], rel=1e-5)
+        if amp:
+            # half a degree at 222 px of focal length: about 1.9 px of sway, 1.3 px rms
+            assert 0.5 < summary["shake_px"] < 3.0, summary
+            assert "camera shaking" in text
+        else:
+            assert summary["shake_px"] == 0.0 and "camera shaking" not in text

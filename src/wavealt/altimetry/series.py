@@ -30,7 +30,7 @@ NO_TRUSTED_WINDOW = "no window trusted"
 #: Columns of ``altitude.csv``, one row per window.
 CSV_COLUMNS = ("start_frame", "stop_frame", "time_s", "fps", "altitude_m", "altitude_std_m",
                "camera_vx_mps", "camera_vy_mps", "quality", "trusted", "mode", "reason",
-               "frames", "n_modes", "yaw_rate_dps")
+               "frames", "n_modes", "yaw_rate_dps", "shake_px")
 
 
 def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: float,
@@ -173,7 +173,8 @@ def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
         relative to the water surface, image +x columns / +y rows, m/s), ``quality`` (mean
         over every window), ``trusted``, ``reason`` (None when trusted), ``mode``,
         ``frames``, ``n_modes``, ``signal``, ``yaw_rate_dps`` (the median of the windows'
-        rate turned back at), ``windows`` and ``trusted_windows``.
+        rate turned back at), ``shake_px`` (the median of the shake taken out of them),
+        ``windows`` and ``trusted_windows``.
     """
     if not rows:
         msg = "rows must hold at least one window; got none"
@@ -204,7 +205,8 @@ def summarize(rows: list[dict[str, Any]], *, frames: int) -> dict[str, Any]:
                    "mode": rows[0]["mode"], "frames": int(frames),
                    "n_modes": int(np.median([r["n_modes"] for r in used])),
                    "signal": Counter(r.get("signal", "") for r in used).most_common(1)[0][0],
-                   "yaw_rate_dps": float(np.median([r.get("yaw_rate_dps", 0.0) for r in used]))}
+                   "yaw_rate_dps": float(np.median([r.get("yaw_rate_dps", 0.0) for r in used])),
+                   "shake_px": float(np.median([r.get("shake_px", 0.0) for r in used]))}
     summary["windows"] = len(rows)
     summary["trusted_windows"] = n_trusted
     return summary

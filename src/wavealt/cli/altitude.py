@@ -98,7 +98,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "velocity_mps, the design contract's name), quality, frames, windows, "
                    "trusted_windows; attitude_deg (roll, pitch) where the frames' own tilt was "
                    "measured and levelled, else null; yaw_rate_dps, the rate the frames were "
-                   "turned back at (given, or measured), deg/s.")
+                   "turned back at (given, or measured), deg/s; shake_px, the camera's shake "
+                   "taken out of the frames (root mean square image shift, px).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for altitude.csv, altitude.json and altitude.png (windowed input).")
 @click.option("--force", is_flag=True, help="Replace the altitude files already in --out.")
@@ -231,6 +232,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     if yaw_rate_dps is None and turned != 0.0:
         click.echo(f"camera turning {turned:+.1f} deg/s about its axis, measured from the "
                    "frames (frames turned back at it)")
+    shaken = summary.get("shake_px") or 0.0
+    if shaken > 0.0:
+        click.echo(f"camera shaking: {shaken:.1f} px of image shift taken out of the frames "
+                   "(a gimbal, or the attitude frame by frame, does better)")
     click.echo(f"quality {summary['quality']:.2f}, {summary['frames']} frames, "
                f"{summary['windows']} window(s), {summary['trusted_windows']} trusted")
     timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}

@@ -31,7 +31,8 @@ from wavealt.io import regular_runs
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
                 "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
-                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "yaw_rate_dps")
+                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "yaw_rate_dps",
+                "shake_px")
 LIVE_FILE = "live.csv"
 #: The summary's latency median and p90 are over at most this many of the newest estimates.
 LATENCY_WINDOW = 10000
@@ -212,7 +213,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                    "fps": round(float(fps), 3), "latency_ms": round(1e3 * latency, 1),
                    "dropped_frames": reader.stats.dropped,
                    "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", ""),
-                   "yaw_rate_dps": res.get("yaw_rate_dps", "")}
+                   "yaw_rate_dps": res.get("yaw_rate_dps", ""),
+                   "shake_px": res.get("shake_px", "")}
             if writer is not None:
                 writer.writerow(row)
                 fh.flush()

@@ -330,12 +330,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                 res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
                               f"clip (give its yaw rate)")
         shake = p.get("shake") if p is not None else None
+        res.shake_px = 0.0 if shake is None else float(np.sqrt(np.mean(shake**2)))
         if velocity_mps is not None and shake is not None:
             # The frames were steadied (:mod:`.jitter`): the camera rolled or pitched over the
             # clip, and the rotation's mean rate, which no steadying sees, moves the image
             # as a velocity over the water would, which a velocity given does not hold (the
             # first thing to mend, whatever else the fit shows).
-            res.reason = (f"the camera shook by {float(np.sqrt(np.mean(shake**2))):.1f} px "
+            res.reason = (f"the camera shook by {res.shake_px:.1f} px "
                           f"over the clip, and its turn moves the image as a velocity would "
                           f"(give its attitude, or fit blind)")
         res.signal += "+unturned" if yaw != 0.0 else ""

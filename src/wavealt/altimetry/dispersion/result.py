@@ -64,6 +64,10 @@ class DispersionResult:
         ``(roll, pitch)``, degrees (:func:`wavealt.camera.tilt_rotation`'s convention), at
         which the altimeter levelled the frames before this fit, measured from the scales of
         the frames' corner tiles; None where the frames were fitted as given.
+    shake_px : float
+        The root mean square, px, of the image shift per frame that a shaking camera gave
+        the frames' corner tiles and that was taken out before the fit (:mod:`.jitter`;
+        ``signal`` adds ``"+steadied"``); 0 where none was.
     """
 
     altitude_m: float
@@ -78,6 +82,7 @@ class DispersionResult:
     signal: str = ""
     attitude_deg: tuple[float, float] | None = None
     yaw_rate_dps: float = 0.0
+    shake_px: float = 0.0
     #: How far the shell's peak stands above the score of random phase steps, in standard
     #: deviations of it (``MIN_SIGNIFICANCE``); internal to the trust decision.
     significance: float = field(default=0.0, repr=False, compare=False)

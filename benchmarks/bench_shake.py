@@ -123,8 +123,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    ap = sea_parser(frames=30, mode="blind")
-    ap.description = __doc__.split("\n\n")[0]
+    ap = sea_parser(__doc__, frames=30, mode="blind")
     ap.add_argument("--amplitudes", default="0.5,1",
                     help="roll and pitch amplitudes, degrees, comma-separated")
     a = ap.parse_args(argv)

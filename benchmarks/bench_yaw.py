@@ -213,10 +213,11 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def sea_parser(frames: int, mode: str) -> argparse.ArgumentParser:
+def sea_parser(doc: str, frames: int, mode: str) -> argparse.ArgumentParser:
     """The options this benchmark and ``bench_shake.py`` share: seeds, sequences, frames,
-    mode, sea, workers and the output file."""
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    mode, sea, workers and the output file; described by the first paragraph of the
+    benchmark's ``doc``."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("--seeds", default="23,31")
     ap.add_argument("--sequences", type=int, default=40)
     ap.add_argument("--frames", type=int, default=frames)
@@ -265,7 +266,7 @@ def report(a: argparse.Namespace, summary: dict[str, Any], rows: list[dict[str, 
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    ap = sea_parser(frames=10, mode="exact")
+    ap = sea_parser(__doc__, frames=10, mode="exact")
     ap.add_argument("--rates", default="10,30", help="yaw rates, deg/s, comma-separated")
     ap.add_argument("--plot", type=Path, help="a PNG of the rates measured and the errors")
     a = ap.parse_args(argv)

@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from wavealt.altimetry.dispersion.constants import YAW_BANDS, YAW_MIN_PX, YAW_SIGMAS
+from wavealt.altimetry.dispersion.spectra import _wrap
 
 #: The pairs of :func:`~.spectra._corners`'s tiles (top left, top right, bottom left,
 #: bottom right): two diagonals, two rows, two columns.
@@ -38,10 +39,6 @@ MIN_PAIR_MODES = 20
 #: Tukey's biweight constant (95 % efficiency under Gaussian residuals).
 _TUKEY = 4.685
 _TUKEY_STEPS = 4
-
-
-def _wrap(x: np.ndarray) -> np.ndarray:
-    return (x + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _median(x: np.ndarray) -> float:

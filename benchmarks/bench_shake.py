@@ -1,8 +1,8 @@
 """The dispersion altimeter on a camera that shakes in roll and pitch; prints one JSON object.
 
     python benchmarks/bench_shake.py [--seeds 23,31] [--sequences 40] [--amplitudes 0.5,1]
-        [--frames 30] [--mode exact|blind] [--sea realistic|second] [--workers 1]
-        [--out FILE.json]
+        [--frames 30] [--mode exact|blind] [--sea realistic|second] [--lags-ms 10,30]
+        [--workers 1] [--out FILE.json]
 
 A camera on a vehicle without a gimbal rolls and pitches by fractions of a degree, back and
 forth, within every second.  Each sequence of the realistic renderer (256 px, altitude 1-15
@@ -13,7 +13,10 @@ central 176 px through the homography of that attitude (OpenCV's ``warpPerspecti
 :func:`wavealt.camera.tilt_rotation`'s axes).  Every amplitude, including 0 (the
 reference: the same crop, level), is fitted as it is (``untold``) and levelled frame by
 frame at the attitude the camera had (``told``: :class:`wavealt.camera.NadirView`, as
-``wavealt altitude --attitude`` does).  ``--mode exact`` gives the camera's velocity over
+``wavealt altitude --attitude`` does).  ``--lags-ms`` adds cases levelled at the attitude
+the camera had that long before each frame (``told+30ms``): what a frame time off by that
+much costs (``wavealt altitude --live --tilt-from-vehicle`` takes the attitude at each
+frame's arrival less ``--camera-latency-ms``).  ``--mode exact`` gives the camera's velocity over
 the water; ``blind`` none.  Per amplitude and case: relative MAE, median, trusted share,
 trusted windows more than 10 % off, 3-sigma coverage, latency; and how often the fit
 steadied the frames (``+steadied``).  ``--sea second`` takes the sea of
@@ -56,14 +59,14 @@ SHAKE_HZ = (0.7, 2.0)
 
 
 def shake_attitudes(seed: int, index: int, amplitude_deg: float, frames: int,
-                    fps: float) -> np.ndarray:
+                    fps: float, lag_s: float = 0.0) -> np.ndarray:
     """``(frames, 2)`` roll and pitch, degrees, of sequence ``index`` of ``seed`` shaking at
     ``amplitude_deg``: each axis ``A sin(2 pi f t + phi)``, ``f`` and ``phi`` drawn from the
-    sequence's own stream (the same for every amplitude)."""
+    sequence's own stream (the same for every amplitude); ``lag_s`` before each frame."""
     rng = np.random.default_rng([seed, index, 7])
     f = rng.uniform(*SHAKE_HZ, 2)
     phi = rng.uniform(0.0, 2.0 * np.pi, 2)
-    t = np.arange(frames)[:, None] / fps
+    t = np.arange(frames)[:, None] / fps - lag_s
     return amplitude_deg * np.sin(2.0 * np.pi * f[None, :] * t + phi[None, :])
 
 
@@ -90,7 +93,8 @@ def shaken_view(frames: np.ndarray, attitudes: np.ndarray, focal_px: float,
 
 
 def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: int,
-                 mode: str, sea_name: str = "realistic") -> list[dict[str, Any]]:
+                 mode: str, sea_name: str = "realistic",
+                 lags_ms: tuple[float, ...] = ()) -> list[dict[str, Any]]:
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.camera import NadirView, pinhole
 
@@ -104,13 +108,17 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
     for amp in (0.0, *amplitudes):
         att = shake_attitudes(seed, index, amp, sea.shape[0], truth["fps"])
         clip = np.clip(shaken_view(sea, att, truth["focal_px"], CAMERA_PX), 0.0, 1.0)
-        for case in ("untold", "told"):
-            if amp == 0.0 and case == "told":
+        cases = {"untold": None, "told": att}
+        for lag in lags_ms:
+            cases[f"told+{lag:g}ms"] = shake_attitudes(seed, index, amp, sea.shape[0],
+                                                       truth["fps"], lag / 1000.0)
+        for case, level in cases.items():
+            if amp == 0.0 and level is not None:
                 continue
             frames_in, focal = clip, truth["focal_px"]
-            if case == "told":
+            if level is not None:
                 view = NadirView(pinhole(CAMERA_PX, CAMERA_PX, focal), CAMERA_PX, CAMERA_PX,
-                                 roll_deg=att[:, 0], pitch_deg=att[:, 1])
+                                 roll_deg=level[:, 0], pitch_deg=level[:, 1])
                 frames_in, focal = view(clip), view.focal_px
             t0 = time.perf_counter()
             res = est.estimate(frames_in, focal_px=focal, **kw)
@@ -126,21 +134,31 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap = sea_parser(__doc__, frames=30, mode="blind")
     ap.add_argument("--amplitudes", default="0.5,1",
                     help="roll and pitch amplitudes, degrees, comma-separated")
+    ap.add_argument("--lags-ms", default="",
+                    help="also level at the attitude this long before each frame, ms, "
+                         "comma-separated (none by default)")
     a = ap.parse_args(argv)
     a.amplitudes = check_sea_args(ap, a, a.amplitudes, "amplitudes")
     if any(not (math.isfinite(r) and 0 < r <= 5) for r in a.amplitudes):
         ap.error(f"--amplitudes must be in (0, 5] degrees; got {a.amplitudes}")
+    try:
+        a.lags_ms = tuple(float(x) for x in a.lags_ms.split(",") if x.strip())
+    except ValueError:
+        ap.error(f"--lags-ms must be comma-separated numbers of ms; got {a.lags_ms!r}")
+    if any(not (math.isfinite(x) and 0 < x <= 1000) for x in a.lags_ms):
+        ap.error(f"--lags-ms must be in (0, 1000] ms; got {a.lags_ms}")
     return a
 
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     job = partial(run_sequence, amplitudes=a.amplitudes, frames=a.frames, mode=a.mode,
-                  sea_name=a.sea)
+                  sea_name=a.sea, lags_ms=a.lags_ms)
     rows, seconds = run_rows(a, job)
     summary = {"benchmark": "shake", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences,
                "amplitudes_deg": list(a.amplitudes), "shake_hz": list(SHAKE_HZ),
+               "lags_ms": list(a.lags_ms),
                "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
                "by_amplitude": summarise(rows, "amplitude_deg", ("steadied",)),
                "seconds": seconds}

@@ -64,6 +64,9 @@ def test_the_shake_repeats_per_sequence_and_scales_with_the_amplitude() -> None:
     assert a.shape == (30, 2) and np.allclose(b, 2.0 * a)
     assert np.abs(a).max() <= 0.5 and np.abs(a).max() > 0.2
     assert not np.allclose(a, mod.shake_attitudes(23, 5, 0.5, 30, 30.0))
+    # a lag of one frame is the same shake one frame earlier
+    late = mod.shake_attitudes(23, 4, 0.5, 30, 30.0, lag_s=1 / 30.0)
+    assert np.allclose(late[1:], a[:-1])
 
 
 @pytest.mark.parametrize(("args", "message"), [
@@ -71,6 +74,8 @@ def test_the_shake_repeats_per_sequence_and_scales_with_the_amplitude() -> None:
     (("--amplitudes", "9"), "--amplitudes must be in (0, 5]"),
     (("--seeds", "a"), "--seeds and --amplitudes must be numbers"),
     (("--mode", "prior"), "invalid choice: 'prior'"),
+    (("--lags-ms", "x"), "--lags-ms must be comma-separated numbers"),
+    (("--lags-ms", "0"), "--lags-ms must be in (0, 1000]"),
     (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:

@@ -62,7 +62,7 @@ def test_a_slow_estimator_drops_the_oldest_frames_and_never_stalls_the_reader(tm
     _clip(tmp_path / "clip.mp4")
     seen = []
 
-    def slow(frames: np.ndarray, fps: float) -> dict:
+    def slow(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict:
         seen.append(frames.shape[0])
         time.sleep(0.25)  # far slower than 30 frames/s
         return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
@@ -85,7 +85,7 @@ def test_windows_never_span_a_gap_in_the_frame_times(tmp_path) -> None:
     _clip(tmp_path / "gap.mp4", frames=40, times_s=times)
     rates = []
 
-    def record(frames: np.ndarray, fps: float) -> dict:
+    def record(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict:
         rates.append(fps)
         return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
                 "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
@@ -131,6 +131,8 @@ def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:
     (["clip", "--focal-px", "200", "--duration", "3"], "go with --live"),
     (["--live", "x.mp4", "--focal-px", "200", "--velocity-from-vehicle"], "need --live and --mavlink"),
     (["--live", "x.mp4", "--focal-px", "200", "--duration", "-1"], "--duration must be"),
+    (["--live", "x.mp4", "--focal-px", "200", "--camera-latency-ms", "30"],
+     "goes with --tilt-from-vehicle"),
 ])
 def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) -> None:
     os.chdir(tmp_path)
@@ -149,9 +151,14 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     autopilot = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
     stop = threading.Event()
 
-    def vehicle() -> None:  # answers once it has heard the companion computer
+    requests = []
+
+    def vehicle() -> None:  # answers each estimate the companion computer sends
         while not stop.is_set():
-            if autopilot.recv_match(blocking=True, timeout=0.05) is not None:
+            msg = autopilot.recv_match(blocking=True, timeout=0.05)
+            if msg is not None and msg.get_type() == "COMMAND_LONG":
+                requests.append((msg.command, msg.param1, msg.param2))
+            elif msg is not None:
                 autopilot.mav.local_position_ned_send(0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0)
                 autopilot.mav.attitude_send(0, 0.1, -0.05, 0.0, 0.0, 0.0, 0.1)
 
@@ -174,11 +181,60 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
     # blind until the vehicle's velocity is heard, then a prior around it
     assert modes[0] == "blind" and modes[-1] == "prior", modes
     assert json.dumps(modes).count("prior") >= 5
-    # levelled with the vehicle's attitude once heard (rounded to the view cache's 0.5 deg)
+    # ATTITUDE asked for at 50 Hz (MAV_CMD_SET_MESSAGE_INTERVAL, every 20000 us)
+    assert requests and requests[0] == (511, 30, 20000.0)
+    # ATTITUDE once per estimate is too seldom to level frame by frame: each window is
+    # levelled at the latest heard (rounded to the view cache's 0.5 deg)
     assert (float(rows[-1]["roll_deg"]), float(rows[-1]["pitch_deg"])) == (5.5, -3.0)
+    assert rows[-1]["attitude_sd_deg"] == ""
     # and turned back at its yaw rate (ATTITUDE's yawspeed, 0.1 rad/s)
     assert float(rows[0]["yaw_rate_dps"]) == 0.0
     assert float(rows[-1]["yaw_rate_dps"]) == pytest.approx(math.degrees(0.1))
+
+
+def test_a_shaking_vehicle_levels_each_frame_at_its_own_attitude(tmp_path, run_cli) -> None:
+    """ATTITUDE streamed at 100 Hz (roll 2 deg at 3 Hz, pitch -1 deg): each frame is
+    levelled at the attitude of its own moment, so a window's attitudes spread as the
+    roll does over it (rms 2/sqrt(2) deg over about a cycle)."""
+    from test_mavlink import _free_port
+
+    from wavealt.live.mavlink import use_mavlink2
+
+    mavutil = use_mavlink2()
+    sc, cfg = _clip(tmp_path / "clip.mp4", frames=60)
+    port = _free_port()
+    autopilot = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+    stop = threading.Event()
+
+    def vehicle() -> None:  # streams once it has heard the companion computer
+        t0, heard = time.monotonic(), False
+        while not stop.is_set():
+            heard = heard or autopilot.recv_match(blocking=False) is not None
+            t = time.monotonic() - t0
+            if heard:
+                roll = math.radians(2.0) * math.sin(2 * math.pi * 3.0 * t)
+                autopilot.mav.attitude_send(int(1000 * t), roll, math.radians(-1.0), 0.0,
+                                            0.0, 0.0, 0.0)
+            time.sleep(0.01)
+
+    thread = threading.Thread(target=vehicle, daemon=True)
+    thread.start()
+    try:
+        code, _, err = run_cli(["altitude", "--live", str(tmp_path / "clip.mp4"),
+                                "--focal-px", str(cfg.focal_px), "--window", "10", "--step", "5",
+                                "--mavlink", f"udpout:127.0.0.1:{port}", "--tilt-from-vehicle",
+                                "--camera-latency-ms", "20", "--out", str(tmp_path / "out")])
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+        autopilot.close()
+    assert code == 0, err
+    rows = [r for r in _rows(tmp_path / "out" / "live.csv") if r["attitude_sd_deg"] != ""]
+    assert len(rows) >= 5  # once the history covers a window, every window
+    for r in rows:
+        assert 1.0 < float(r["attitude_sd_deg"]) < 1.8
+        assert float(r["pitch_deg"]) == pytest.approx(-1.0, abs=0.02)
+        assert abs(float(r["roll_deg"])) < 1.0
 
 
 def test_a_pipe_on_standard_input_is_read_live(tmp_path) -> None:

@@ -114,6 +114,61 @@ def test_link_sends_heartbeat_and_distance_and_hears_the_vehicle() -> None:
         autopilot.close()
 
 
+def test_attitude_history_is_interpolated_on_our_clock() -> None:
+    """ATTITUDE at 50 Hz on the autopilot's clock (``time_boot_ms``, started 100 s before
+    ours) is placed on this computer's clock and interpolated at any moment it covers;
+    moments it does not cover, or covers too sparsely, give None; a restart of the
+    autopilot's clock starts the history again."""
+    port = _free_port()
+    autopilot = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+    link = MavlinkLink(f"udpout:127.0.0.1:{port}")
+    try:
+        link.request_attitude_rate(50.0)
+        cmd = _collect(autopilot, {"COMMAND_LONG"}, seconds=3.0)
+        assert cmd and (cmd[0].command, cmd[0].param1, cmd[0].param2) == (
+            M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_ATTITUDE, 20000.0)
+
+        def roll_at(t: float) -> float:
+            return 0.02 * math.sin(2 * math.pi * 1.5 * t)
+
+        t0 = time.monotonic() - 100.0  # the autopilot booted 100 s ago
+        start = time.monotonic()
+        while time.monotonic() - start < 1.0:
+            t = time.monotonic() - t0
+            autopilot.mav.attitude_send(int(1000 * t), roll_at(t), -0.01, 0.0, 0.0, 0.0, 0.0)
+            link.poll()
+            time.sleep(0.02)
+        link.poll()
+        times = np.linspace(start + 0.1, start + 0.9, 25)
+        got = link.attitude_at(times)
+        assert got is not None
+        # the delay of the loopback (well under 5 ms) is all that is left
+        assert np.allclose(got[0], [roll_at(t - t0) for t in times], atol=0.02 * 0.05)
+        assert np.allclose(got[1], -0.01)
+        assert link.attitude_at([start - 5.0, start + 0.5]) is None  # before the history
+        assert link.attitude_at([start + 0.5, time.monotonic() + 1.0]) is None  # after it
+        # a gap of 0.3 s in the stream: the moments across it are not covered
+        time.sleep(0.3)
+        t = time.monotonic() - t0
+        autopilot.mav.attitude_send(int(1000 * t), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        deadline = time.monotonic() + 2.0
+        while len(link.poll().attitude_history) < 2 or (
+                link.state.attitude_history[-1][2] != 0.0 and time.monotonic() < deadline):
+            time.sleep(0.01)
+        assert link.attitude_at([start + 0.9, time.monotonic() - 0.05]) is None
+        # the autopilot restarts: its clock begins again, and so does the history
+        autopilot.mav.attitude_send(500, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        deadline = time.monotonic() + 2.0
+        while len(link.poll().attitude_history) != 1 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert len(link.state.attitude_history) == 1
+        with pytest.raises(ValueError, match="ATTITUDE rate"):
+            link.request_attitude_rate(0.0)
+    finally:
+        link.close()
+        autopilot.close()
+
+
 def test_cli_streams_every_window_and_flags_the_untrusted(tmp_path, capsys) -> None:
     """`wavealt altitude CLIP --mavlink udpout:...`: one DISTANCE_SENSOR per window; frozen
     frames (no wave motion) are never trusted, so they arrive as an invalid, out-of-range

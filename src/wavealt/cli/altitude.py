@@ -37,8 +37,14 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "on the camera's velocity over the water, with --velocity-sigma-mps for the "
                    "water's unknown current [1 m/s]; blind while none is heard.")
 @click.option("--tilt-from-vehicle", is_flag=True,
-              help="With --live and --mavlink: level each window with the vehicle's ATTITUDE "
-                   "(a camera fixed to the airframe, image top toward the nose).")
+              help="With --live and --mavlink: level each frame with the vehicle's ATTITUDE "
+                   "when it was taken (a camera fixed to the airframe, image top toward the "
+                   "nose; ATTITUDE is asked for at 50 Hz), or each window with the latest "
+                   "where ATTITUDE comes too seldom.")
+@click.option("--camera-latency-ms", type=float, default=None, metavar="MS",
+              help="With --tilt-from-vehicle: how long a frame takes from its exposure to its "
+                   "decoding here (the camera's and the link's delay); each frame is levelled "
+                   "at the attitude of that long before it arrived.  [default: 0]")
 @click.option("--fps", type=float, default=None,
               help="Frame rate of a frame folder, frames/s.  A video's own timestamps give its "
                    "frame times; --fps that contradicts them is an error unless --force-fps.")
@@ -116,8 +122,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
              window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
              velocity_sigma_mps: float | None, readout_ms: float | None,
-             yaw_rate_dps: float | None, as_json: bool, out: Path | None, force: bool,
-             mavlink: str | None, mavlink_range: str) -> None:
+             yaw_rate_dps: float | None, camera_latency_ms: float | None, as_json: bool,
+             out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """Altitude from a folder of frames, a video file or a live stream, by the wave
     dispersion relation.
 
@@ -145,6 +151,13 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     if tilt_from_vehicle and (attitude, roll_deg, pitch_deg) != (None, None, None):
         msg = "give --tilt-from-vehicle or a fixed/logged attitude, not both"
         raise ValueError(msg)
+    if camera_latency_ms is not None:
+        if not tilt_from_vehicle:
+            msg = "--camera-latency-ms goes with --tilt-from-vehicle"
+            raise ValueError(msg)
+        if not (math.isfinite(camera_latency_ms) and 0 <= camera_latency_ms <= 1000):
+            msg = f"--camera-latency-ms must be in [0, 1000] ms; got {camera_latency_ms!r}"
+            raise ValueError(msg)
     if velocity_from_vehicle and velocity_mps is not None:
         msg = "give --velocity-from-vehicle or --velocity-mps, not both"
         raise ValueError(msg)
@@ -176,6 +189,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        dispersion=dispersion, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
                        yaw_rate_dps=yaw_rate_dps,
+                       latency_s=(camera_latency_ms or 0.0) / 1000.0,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
@@ -252,11 +266,13 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
-                   readout_s: float, yaw_rate_dps: float | None,
+                   readout_s: float, yaw_rate_dps: float | None, latency_s: float,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
+    import numpy as np
+
     from wavealt.altimetry.dispersion import DispersionAltimeter, warm_up
     from wavealt.camera import MAX_YAW_RATE_DPS as MAX_YAW
     from wavealt.camera import NadirView, read_calibration
@@ -303,12 +319,17 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                           calib.camera_matrix[0, 0])
         return views[key]
 
-    def estimate(frames: np.ndarray, fps: float) -> dict[str, Any]:
+    def estimate(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict[str, Any]:
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
         known = (roll_deg, pitch_deg) != (None, None)
         vel, sd, yaw = velocity, sigma or 0.0, yaw_rate_dps
+        per_frame = None
         if link is not None:
             state = link.poll()
+            if tilt_from_vehicle:
+                # each frame at the attitude it was taken with, where ATTITUDE comes often
+                # enough; else the window at the latest heard
+                per_frame = link.attitude_at(arrivals - latency_s)
             if tilt_from_vehicle and state.attitude_rad is not None:
                 roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
                 known = True
@@ -317,16 +338,29 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                 yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
             if velocity_from_vehicle:
                 vel = link.camera_velocity_mps()
-        roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
-        view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
-        if view is not None:
+        spread = None
+        if per_frame is not None:
+            rolls, pitches = np.degrees(per_frame[0]), np.degrees(per_frame[1])
+            h, w = frames.shape[1:3]
+            view = NadirView(_calibration(w, h, focal_px, fov_deg, lens), w, h,
+                             roll_deg=rolls, pitch_deg=pitches)
             frames, f = view(frames), view.focal_px
+            roll, pitch = round(float(rolls.mean()), 2), round(float(pitches.mean()), 2)
+            spread = round(float(np.sqrt(np.mean((rolls - rolls.mean()) ** 2
+                                                 + (pitches - pitches.mean()) ** 2))), 3)
+            known = True
+        else:
+            roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
+            view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
+            if view is not None:
+                frames, f = view(frames), view.focal_px
         res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
                                   velocity_sigma_mps=sd if vel is not None else 0.0,
                                   readout_s=readout_s,
                                   yaw_rate_dps=yaw).to_dict()
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
+            res["attitude_sd_deg"] = "" if spread is None else spread
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "
@@ -338,6 +372,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
 
         lo, hi = number_range(mavlink_range, "mavlink-range")
         link = MavlinkLink(mavlink, min_m=lo, max_m=hi)
+        if tilt_from_vehicle:
+            link.request_attitude_rate()
     try:
         summary = run_live(source, estimate=estimate, window=window, step=step, fmt=live_format,
                            duration_s=duration,

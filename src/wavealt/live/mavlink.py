@@ -3,7 +3,13 @@
 wavealt speaks as an onboard component (``MAV_COMP_ID_ONBOARD_COMPUTER``): a ``HEARTBEAT``
 about once a second and a downward ``DISTANCE_SENSOR`` (orientation ``PITCH_270``) per
 estimate. It listens for ``LOCAL_POSITION_NED`` (or ``GLOBAL_POSITION_INT``) and ``ATTITUDE``
-to give the altimeter the vehicle's velocity in image axes.
+to give the altimeter the vehicle's velocity in image axes, and keeps the last seconds of
+``ATTITUDE`` so that each frame of a window can be levelled at the attitude the camera had
+when it was taken (a camera without a gimbal shakes by fractions of a degree within every
+second). Each ``ATTITUDE`` is placed on this computer's clock by its own ``time_boot_ms``
+plus the smallest offset between that and its arrival over the history: the link's delay
+and its jitter (a serial port or a radio delivers messages in bursts) drop out, leaving the
+fastest message's delay.
 
 A window the altimeter does not trust must not steer the vehicle. ArduPilot reads
 ``signal_quality`` 0 as "unknown" (and uses the reading) and 1 as the worst quality, so an
@@ -16,13 +22,26 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 #: DISTANCE_SENSOR's covariance field is uint8 cm^2; 255 means unknown.
 COVARIANCE_UNKNOWN = 255
 #: MAVLink signal_quality: 1 = invalid signal, 100 = perfect.
 SIGNAL_INVALID = 1
+#: ATTITUDE rate asked of the autopilot (MAV_CMD_SET_MESSAGE_INTERVAL), Hz: a shake of 2 Hz
+#: sampled 25 times a cycle, so that linear interpolation between samples is within 1 % of
+#: its amplitude (ArduPilot streams ATTITUDE at 4-10 Hz unless asked).
+ATTITUDE_RATE_HZ = 50.0
+#: A window's frames are levelled one by one only where no two ATTITUDE samples around them
+#: lie further apart than this, s (a 2-Hz shake at 10 Hz: within 20 % of its amplitude).
+ATTITUDE_MAX_GAP_S = 0.1
+#: How much ATTITUDE history is kept, s (a window is 1 s; the clock offset is the minimum
+#: over this span, short enough that two clocks' drift, ~50 ppm, stays below 1 ms).
+ATTITUDE_HISTORY_S = 10.0
 
 
 def use_mavlink2() -> Any:
@@ -43,7 +62,8 @@ class VehicleState:
 
     ``velocity_ned_mps``: (north, east, down) over ground; ``attitude_rad``: (roll, pitch,
     yaw); ``yaw_rate_rad_s``: the yaw rate (positive nose right); ``*_time``:
-    ``time.monotonic()`` when each was received.
+    ``time.monotonic()`` when each was received; ``attitude_history``: the last
+    ``ATTITUDE_HISTORY_S`` of ATTITUDE as (time_boot_ms / 1000, arrival, roll, pitch).
     """
 
     velocity_ned_mps: tuple[float, float, float] | None = None
@@ -51,6 +71,7 @@ class VehicleState:
     yaw_rate_rad_s: float | None = None
     velocity_time: float = field(default=-math.inf)
     attitude_time: float = field(default=-math.inf)
+    attitude_history: deque[tuple[float, float, float, float]] = field(default_factory=deque)
 
 
 def ned_to_image(v_ned: tuple[float, float, float], yaw_rad: float) -> tuple[float, float]:
@@ -114,12 +135,15 @@ class MavlinkLink:
         self._t0 = time.monotonic()
         self._last_heartbeat = -math.inf
         self._local_time = -math.inf  # when LOCAL_POSITION_NED was last heard
+        self.attitude_hz: float | None = None  # the ATTITUDE rate asked for, if any
 
     def time_boot_ms(self) -> int:
         return int(1000 * (time.monotonic() - self._t0)) & 0xFFFFFFFF
 
     def heartbeat(self, *, every_s: float = 1.0) -> None:
-        """Send a HEARTBEAT unless one went out within ``every_s``."""
+        """Send a HEARTBEAT unless one went out within ``every_s``; with it, the request
+        for ATTITUDE again while it comes at less than half the rate asked for (a request
+        lost, or an autopilot that started later)."""
         now = time.monotonic()
         if now - self._last_heartbeat < every_s:
             return
@@ -127,6 +151,10 @@ class MavlinkLink:
         self.conn.mav.heartbeat_send(m.MAV_TYPE_ONBOARD_CONTROLLER, m.MAV_AUTOPILOT_INVALID, 0, 0,
                                      m.MAV_STATE_ACTIVE)
         self._last_heartbeat = now
+        if self.attitude_hz is not None:
+            recent = sum(now - arrival <= 1.0 for _, arrival, _, _ in self.state.attitude_history)
+            if recent < self.attitude_hz / 2:
+                self._send_attitude_request()
 
     def send_altitude(self, result: dict[str, Any]) -> dict[str, int]:
         """Send one DISTANCE_SENSOR for an estimate (a window row or summary: ``altitude_m``,
@@ -159,7 +187,56 @@ class MavlinkLink:
                 self.state.attitude_rad = (msg.roll, msg.pitch, msg.yaw)
                 self.state.yaw_rate_rad_s = msg.yawspeed
                 self.state.attitude_time = now
+                self._remember_attitude(msg.time_boot_ms / 1000.0, now, msg.roll, msg.pitch)
         return self.state
+
+    def _remember_attitude(self, boot_s: float, now: float, roll: float, pitch: float) -> None:
+        h = self.state.attitude_history
+        if h and boot_s <= h[-1][0]:
+            if boot_s > h[-1][0] - 1.0:
+                return  # a repeat, or UDP out of order: the history stays in time order
+            h.clear()  # the autopilot restarted: its clock began again
+        h.append((boot_s, now, float(roll), float(pitch)))
+        while h[-1][0] - h[0][0] > ATTITUDE_HISTORY_S:
+            h.popleft()
+
+    def request_attitude_rate(self, hz: float = ATTITUDE_RATE_HZ) -> None:
+        """Ask the autopilot (component 1 of this link's system) to stream ATTITUDE at
+        ``hz`` (MAV_CMD_SET_MESSAGE_INTERVAL), now and with each heartbeat while it does
+        not."""
+        if not (math.isfinite(hz) and 0 < hz <= 1000):
+            msg = f"the ATTITUDE rate must be in (0, 1000] Hz; got {hz}"
+            raise ValueError(msg)
+        self.attitude_hz = float(hz)
+        self._send_attitude_request()
+
+    def _send_attitude_request(self) -> None:
+        m = self._m
+        self.conn.mav.command_long_send(self.conn.source_system, m.MAV_COMP_ID_AUTOPILOT1,
+                                        m.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                        m.MAVLINK_MSG_ID_ATTITUDE, 1e6 / self.attitude_hz,
+                                        0, 0, 0, 0, 0)
+
+    def attitude_at(self, times: Any) -> tuple[np.ndarray, np.ndarray] | None:
+        """Roll and pitch (rad) at each of ``times`` (``time.monotonic()`` seconds, when
+        each frame was taken), interpolated linearly in the ATTITUDE history; None unless
+        the history holds a sample at or before the first time, samples no more than
+        ``ATTITUDE_MAX_GAP_S`` apart through the times, and one within that of the last."""
+        self.poll()
+        h = self.state.attitude_history
+        t = np.asarray(times, dtype=np.float64)
+        if len(h) < 2 or t.size == 0 or not np.all(np.isfinite(t)):
+            return None
+        a = np.array(h)
+        local = a[:, 0] + np.min(a[:, 1] - a[:, 0])  # the autopilot's clock on ours
+        first, last = float(t.min()), float(t.max())
+        if first < local[0] or last > local[-1] + ATTITUDE_MAX_GAP_S:
+            return None
+        i0 = int(np.searchsorted(local, first, side="right")) - 1
+        i1 = int(np.searchsorted(local, last, side="left"))
+        if np.any(np.diff(local[i0:i1 + 1]) > ATTITUDE_MAX_GAP_S):
+            return None
+        return np.interp(t, local, a[:, 2]), np.interp(t, local, a[:, 3])
 
     def camera_velocity_mps(self, *, max_age_s: float = 1.0) -> tuple[float, float] | None:
         """The vehicle's velocity over ground in image axes (:func:`ned_to_image`), or None
@@ -175,5 +252,5 @@ class MavlinkLink:
         self.conn.close()
 
 
-__all__ = ["COVARIANCE_UNKNOWN", "SIGNAL_INVALID", "MavlinkLink", "VehicleState",
-           "distance_fields", "ned_to_image", "use_mavlink2"]
+__all__ = ["ATTITUDE_MAX_GAP_S", "ATTITUDE_RATE_HZ", "COVARIANCE_UNKNOWN", "SIGNAL_INVALID",
+           "MavlinkLink", "VehicleState", "distance_fields", "ned_to_image", "use_mavlink2"]

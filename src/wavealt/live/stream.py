@@ -31,8 +31,8 @@ from wavealt.io import regular_runs
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
                 "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
-                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "yaw_rate_dps",
-                "shake_px")
+                "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "attitude_sd_deg",
+                "yaw_rate_dps", "shake_px")
 LIVE_FILE = "live.csv"
 #: The summary's latency median and p90 are over at most this many of the newest estimates.
 LATENCY_WINDOW = 10000
@@ -144,10 +144,12 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     """Estimate the altitude from ``source`` until it ends, ``duration_s`` passes, or SIGINT /
     SIGTERM; return a summary.
 
-    ``estimate(frames, fps)`` takes ``(window, H, W, 3)`` uint8 frames and their rate and
-    returns a result dict (``DispersionResult.to_dict()`` keys, and the attitude the frames
-    were levelled with as ``roll_deg`` and ``pitch_deg`` where they were); each becomes a
-    row of ``log`` (``LIVE_COLUMNS``) and is passed to ``on_estimate``.
+    ``estimate(frames, fps, arrivals)`` takes ``(window, H, W, 3)`` uint8 frames, their rate
+    and when each was decoded (``time.monotonic()`` seconds), and returns a result dict
+    (``DispersionResult.to_dict()`` keys, and where the frames were levelled the attitude as
+    ``roll_deg`` and ``pitch_deg``, the window's mean, and ``attitude_sd_deg``, how far the
+    frames' attitudes spread about it); each becomes a row of ``log`` (``LIVE_COLUMNS``) and
+    is passed to ``on_estimate``.
     """
     reader = FrameReader(source, capacity=capacity or 4 * window, fmt=fmt, pace=pace)
     stop = threading.Event()
@@ -196,7 +198,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                 skipped += 1
                 continue
             fps = (len(times) - 1) / (times[-1] - times[0])
-            res = estimate(np.stack([it.frame for it in items]), float(fps))
+            res = estimate(np.stack([it.frame for it in items]), float(fps),
+                           np.array([it.arrival for it in items]))
             if on_estimate is not None:
                 on_estimate(res)
             # from the window's last frame to the estimate delivered (sent, when linked)
@@ -213,6 +216,7 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                    "fps": round(float(fps), 3), "latency_ms": round(1e3 * latency, 1),
                    "dropped_frames": reader.stats.dropped,
                    "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", ""),
+                   "attitude_sd_deg": res.get("attitude_sd_deg", ""),
                    "yaw_rate_dps": res.get("yaw_rate_dps", ""),
                    "shake_px": res.get("shake_px", "")}
             if writer is not None:

@@ -58,16 +58,22 @@ from bench_yaw import (  # noqa: E402
 SHAKE_HZ = (0.7, 2.0)
 
 
-def shake_attitudes(seed: int, index: int, amplitude_deg: float, frames: int,
-                    fps: float, lag_s: float = 0.0) -> np.ndarray:
-    """``(frames, 2)`` roll and pitch, degrees, of sequence ``index`` of ``seed`` shaking at
-    ``amplitude_deg``: each axis ``A sin(2 pi f t + phi)``, ``f`` and ``phi`` drawn from the
-    sequence's own stream (the same for every amplitude); ``lag_s`` before each frame."""
+def shake_at(seed: int, index: int, amplitude_deg: float, times_s: np.ndarray) -> np.ndarray:
+    """``(len(times_s), 2)`` roll and pitch, degrees, of sequence ``index`` of ``seed``
+    shaking at ``amplitude_deg`` at ``times_s`` (frame ``i`` is taken at ``i / fps``): each
+    axis ``A sin(2 pi f t + phi)``, ``f`` and ``phi`` drawn from the sequence's own stream
+    (the same for every amplitude)."""
     rng = np.random.default_rng([seed, index, 7])
     f = rng.uniform(*SHAKE_HZ, 2)
     phi = rng.uniform(0.0, 2.0 * np.pi, 2)
-    t = np.arange(frames)[:, None] / fps - lag_s
+    t = np.asarray(times_s, dtype=np.float64)[:, None]
     return amplitude_deg * np.sin(2.0 * np.pi * f[None, :] * t + phi[None, :])
+
+
+def shake_attitudes(seed: int, index: int, amplitude_deg: float, frames: int,
+                    fps: float, lag_s: float = 0.0) -> np.ndarray:
+    """:func:`shake_at` of the ``frames`` frames, or ``lag_s`` before each."""
+    return shake_at(seed, index, amplitude_deg, np.arange(frames) / fps - lag_s)
 
 
 def shaken_view(frames: np.ndarray, attitudes: np.ndarray, focal_px: float,

@@ -44,7 +44,9 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
 @click.option("--camera-latency-ms", type=float, default=None, metavar="MS",
               help="With --tilt-from-vehicle: how long a frame takes from its exposure to its "
                    "decoding here (the camera's and the link's delay); each frame is levelled "
-                   "at the attitude of that long before it arrived.  [default: 0]")
+                   "at the attitude of that long before it arrived.  [default: measured from "
+                   "the frames' own shake against ATTITUDE; until then each window is levelled "
+                   "at its mean attitude]")
 @click.option("--fps", type=float, default=None,
               help="Frame rate of a frame folder, frames/s.  A video's own timestamps give its "
                    "frame times; --fps that contradicts them is an error unless --force-fps.")
@@ -189,7 +191,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        dispersion=dispersion, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
                        yaw_rate_dps=yaw_rate_dps,
-                       latency_s=(camera_latency_ms or 0.0) / 1000.0,
+                       latency_s=None if camera_latency_ms is None else camera_latency_ms / 1e3,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
                        force=force, mavlink=mavlink, mavlink_range=mavlink_range)
@@ -266,7 +268,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
-                   readout_s: float, yaw_rate_dps: float | None, latency_s: float,
+                   readout_s: float, yaw_rate_dps: float | None, latency_s: float | None,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
@@ -277,7 +279,9 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     from wavealt.camera import MAX_YAW_RATE_DPS as MAX_YAW
     from wavealt.camera import NadirView, read_calibration
     from wavealt.io import check_output_folder
+    from wavealt.altimetry.dispersion import image_shake
     from wavealt.live import LIVE_FILE, run_live
+    from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, LatencyMeter
 
     if attitude is not None:
         msg = "--attitude is a log for recorded input; live, use --tilt-from-vehicle"
@@ -303,6 +307,9 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     sigma = velocity_sigma_mps
     if velocity_from_vehicle and sigma is None:
         sigma = 1.0
+    # the camera's delay behind ATTITUDE, measured where not given (wavealt.live.latency)
+    meter = LatencyMeter() if tilt_from_vehicle and latency_s is None else None
+    calls = [0]
     link = None
     views: dict[tuple[int, int, float, float], Any] = {}
 
@@ -323,16 +330,28 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
         known = (roll_deg, pitch_deg) != (None, None)
         vel, sd, yaw = velocity, sigma or 0.0, yaw_rate_dps
-        per_frame = None
+        per_frame = lag = None
         if link is not None:
             state = link.poll()
-            if tilt_from_vehicle:
-                # each frame at the attitude it was taken with, where ATTITUDE comes often
-                # enough; else the window at the latest heard
-                per_frame = link.attitude_at(arrivals - latency_s)
             if tilt_from_vehicle and state.attitude_rad is not None:
                 roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
                 known = True
+            if tilt_from_vehicle:
+                lag = latency_s if meter is None else meter.latency_s
+                if meter is not None and (meter.windows < SETTLE_WINDOWS
+                                          or calls[0] % MEASURE_EVERY == 0):
+                    # the frames' own shake against ATTITUDE: when they were taken
+                    f0 = camera(frames.shape[2], frames.shape[1], 0.0, 0.0)[1]
+                    shake = image_shake(frames, est[True]) if len(frames) >= 15 else None
+                    if shake is not None:
+                        meter.add(shake, arrivals, link.attitude_at, f0)
+                calls[0] += 1
+                if lag is not None:  # each frame at the attitude it was taken with
+                    per_frame = link.attitude_at(arrivals - lag)
+                else:  # the delay not yet known: the window at its mean attitude
+                    now = link.attitude_at(arrivals)
+                    if now is not None:
+                        roll, pitch = (math.degrees(float(np.mean(a))) for a in now)
             if tilt_from_vehicle and state.yaw_rate_rad_s is not None:
                 # a spin past the altimeter's reach is turned back as far as it goes
                 yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
@@ -361,6 +380,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         if view is not None:
             res["roll_deg"], res["pitch_deg"] = roll, pitch
             res["attitude_sd_deg"] = "" if spread is None else spread
+        if tilt_from_vehicle:
+            res["camera_latency_ms"] = "" if lag is None else round(1e3 * lag, 1)
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

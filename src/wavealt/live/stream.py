@@ -32,7 +32,7 @@ from wavealt.io import regular_runs
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
                 "camera_vy_mps", "trusted", "reason", "quality", "mode", "frames", "fps",
                 "latency_ms", "dropped_frames", "roll_deg", "pitch_deg", "attitude_sd_deg",
-                "yaw_rate_dps", "shake_px")
+                "camera_latency_ms", "yaw_rate_dps", "shake_px")
 LIVE_FILE = "live.csv"
 #: The summary's latency median and p90 are over at most this many of the newest estimates.
 LATENCY_WINDOW = 10000
@@ -147,8 +147,9 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     ``estimate(frames, fps, arrivals)`` takes ``(window, H, W, 3)`` uint8 frames, their rate
     and when each was decoded (``time.monotonic()`` seconds), and returns a result dict
     (``DispersionResult.to_dict()`` keys, and where the frames were levelled the attitude as
-    ``roll_deg`` and ``pitch_deg``, the window's mean, and ``attitude_sd_deg``, how far the
-    frames' attitudes spread about it); each becomes a row of ``log`` (``LIVE_COLUMNS``) and
+    ``roll_deg`` and ``pitch_deg``, the window's mean, ``attitude_sd_deg``, how far the
+    frames' attitudes spread about it, and ``camera_latency_ms``, the frames' delay behind
+    the attitude they were levelled at); each becomes a row of ``log`` (``LIVE_COLUMNS``) and
     is passed to ``on_estimate``.
     """
     reader = FrameReader(source, capacity=capacity or 4 * window, fmt=fmt, pace=pace)
@@ -217,6 +218,7 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                    "dropped_frames": reader.stats.dropped,
                    "roll_deg": res.get("roll_deg", ""), "pitch_deg": res.get("pitch_deg", ""),
                    "attitude_sd_deg": res.get("attitude_sd_deg", ""),
+                   "camera_latency_ms": res.get("camera_latency_ms", ""),
                    "yaw_rate_dps": res.get("yaw_rate_dps", ""),
                    "shake_px": res.get("shake_px", "")}
             if writer is not None:

@@ -143,7 +143,8 @@ from wavealt.altimetry.dispersion.spectra import (  # noqa: F401
     _windowed_modes,
     _wrap,
 )
+from wavealt.altimetry.dispersion.shake import image_shake
 from wavealt.altimetry.dispersion.warm import warm_up
 
-__all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint",
+__all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint", "image_shake",
            "estimate_altitude", "reason_class", "warm_up"]

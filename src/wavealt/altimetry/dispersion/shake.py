@@ -1,0 +1,53 @@
+"""A shaking camera's image shift measured on frames alone, without a fit.
+
+The altimeter steadies its corner tiles' mode series before it fits them (:mod:`.jitter`).
+A caller that levels frames itself at an attitude measured elsewhere (a flight controller's
+``ATTITUDE``) needs the same measurement on the frames as they came, to learn when each
+frame was taken on the attitude's clock (:mod:`wavealt.live.latency`): the image shift
+that the camera's rotation gave them, frame by frame.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from wavealt._checks import check_frames
+from wavealt.altimetry.dispersion.constants import JITTER_MIN_FRAMES
+from wavealt.altimetry.dispersion.jitter import remove_shake
+from wavealt.altimetry.dispersion.kernel import _one_blas_thread
+from wavealt.altimetry.dispersion.signal import bin_frames, working_bin
+from wavealt.altimetry.dispersion.spectra import _corners, _windowed_modes
+
+
+def image_shake(frames: Any, altimeter: Any = None) -> np.ndarray | None:
+    """The image shift of each frame of ``frames`` ``(T, H, W[, 3])`` that the corner tiles
+    agree on, ``(T, 2)`` px of the frames given (x, y), less its mean motion over the clip
+    (no trend, mean zero): the shake the altimeter would remove before its fit, with the
+    altimeter's signal, tiles and working scale (``altimeter``: a
+    :class:`~wavealt.altimetry.dispersion.DispersionAltimeter`, the default one when None).
+    None where the tiles share no shift standing above their own noise
+    (``JITTER_MIN_RATIO``).  A content that moves right and down has positive shifts."""
+    if altimeter is None:
+        from wavealt.altimetry.dispersion.altimeter import DispersionAltimeter
+
+        altimeter = DispersionAltimeter()
+    arr = check_frames(frames, min_frames=JITTER_MIN_FRAMES, allow_gray=True)
+    if min(arr.shape[1:3]) < 32:
+        msg = f"frames must be at least 32x32 px to measure a shake; got {arr.shape[1:3]}"
+        raise ValueError(msg)
+    b = working_bin(*arr.shape[1:3], altimeter.working_px)
+    with _one_blas_thread():
+        if b > 1:
+            arr = bin_frames(arr, b)
+        signal = altimeter._luma(arr)
+        parts = _corners(signal, altimeter.corner_tiles or 0.4)
+        kx, ky, _, _, idx = altimeter._plane(*parts[0].shape[1:])
+        series = _windowed_modes(parts, idx)
+        series -= series.mean(axis=1, keepdims=True)
+        _, shake = remove_shake(series, kx[idx], ky[idx])
+    return None if shake is None else shake * b
+
+
+__all__ = ["image_shake"]

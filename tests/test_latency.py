@@ -1,0 +1,116 @@
+"""A camera's delay behind the vehicle's ATTITUDE, from the frames' own shake: the image
+shift the corner tiles measure is the one the attitude predicts, the delay is found where
+the prediction explains it, and an attitude that is not the camera's measures nothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wavealt.altimetry.dispersion import DispersionAltimeter, image_shake
+from wavealt.camera import tilt_rotation
+from wavealt.live.latency import (
+    MIN_WINDOWS,
+    LatencyMeter,
+    attitude_shift,
+    detrend,
+)
+from wavealt.sim.config import preset_config
+from wavealt.sim.generate import generate_sequence
+
+SIDE = 176
+
+
+@pytest.fixture(scope="module")
+def sea() -> tuple[np.ndarray, float, float]:
+    """A level camera's 30 grey frames of the realistic renderer (4 m), its focal length
+    and frame rate."""
+    cfg = preset_config("realistic", size=256, frames=30, seed=4, altitude_m=(4.0, 4.0),
+                        wind_speed_mps=(8.0, 8.0), camera_speed_mps=(0.4, 0.4))
+    frames = generate_sequence(cfg.sample_scenario(0), cfg).clean.mean(axis=-1)
+    return frames, float(cfg.focal_px), float(cfg.fps)
+
+
+def _shake(rng: np.random.Generator, amp_deg: float):
+    """Roll and pitch, radians, as functions of time: ``amp sin(2 pi f t + phi)`` per axis,
+    ``f`` in 0.7-2 Hz."""
+    f, phi = rng.uniform(0.7, 2.0, 2), rng.uniform(0, 2 * np.pi, 2)
+
+    def at(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(times, dtype=np.float64)
+        return tuple(math.radians(amp_deg) * np.sin(2 * np.pi * f[i] * t + phi[i])
+                     for i in range(2))
+    return at
+
+
+def _shaken(frames: np.ndarray, focal_px: float, roll: np.ndarray,
+            pitch: np.ndarray) -> np.ndarray:
+    """The central SIDE px of a camera at each frame's roll and pitch (radians) over the
+    level camera's frames (OpenCV's homography of the rotation)."""
+    import cv2
+
+    t, h, w = frames.shape
+    k = np.array([[focal_px, 0, (w - 1) / 2], [0, focal_px, (h - 1) / 2], [0, 0, 1.0]])
+    k_out = np.array([[focal_px, 0, (SIDE - 1) / 2], [0, focal_px, (SIDE - 1) / 2],
+                      [0, 0, 1.0]])
+    out = [cv2.warpPerspective(frames[i].astype(np.float32),
+                               k @ tilt_rotation(math.degrees(roll[i]), math.degrees(pitch[i]))
+                               @ np.linalg.inv(k_out), (SIDE, SIDE),
+                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                               borderMode=cv2.BORDER_REFLECT) for i in range(t)]
+    return np.clip(np.stack(out), 0.0, 1.0)
+
+
+def test_the_attitudes_shift_is_the_focal_length_times_the_angle() -> None:
+    assert np.allclose(attitude_shift(0.0, 0.0, 200.0), 0.0)
+    small = attitude_shift(np.array([1e-3, 0.0]), np.array([0.0, 1e-3]), 200.0)
+    # a small rotation about one axis moves the image along one axis by f times the angle
+    assert np.allclose(np.abs(small), [[0.2, 0.0], [0.0, 0.2]], atol=1e-6)
+    # and twice the angle twice as far (to the tangent's curvature)
+    assert np.allclose(attitude_shift(2e-3, 0.0, 200.0), 2 * small[0], rtol=1e-5)
+    series = np.cumsum(np.ones((10, 2)), axis=0) + 3.0
+    assert np.allclose(detrend(series), 0.0)  # a line is all trend
+
+
+def test_the_image_shake_is_the_shift_the_attitude_predicts(sea) -> None:
+    """Through a degree of shake, the corner tiles read the image shift of the camera's
+    rotation, sign and size, to 15 % of its root mean square; a level camera reads none."""
+    frames, focal, fps = sea
+    at = _shake(np.random.default_rng(1), 1.0)
+    roll, pitch = at(np.arange(30) / fps)
+    alt = DispersionAltimeter(dispersion="gravity-capillary")
+    measured = image_shake(_shaken(frames, focal, roll, pitch), alt)
+    assert measured is not None and measured.shape == (30, 2)
+    predicted = detrend(attitude_shift(roll, pitch, focal))
+    rms = float(np.sqrt(np.mean(predicted**2)))
+    assert rms > 1.5
+    assert float(np.sqrt(np.mean((measured - predicted) ** 2))) < 0.15 * rms
+    zeros = np.zeros(30)
+    assert image_shake(_shaken(frames, focal, zeros, zeros), alt) is None
+    with pytest.raises(ValueError, match="at least 15"):
+        image_shake(frames[:10], alt)
+
+
+def test_the_meter_finds_the_delay_and_an_unrelated_attitude_measures_nothing(sea) -> None:
+    """Windows whose frames arrive 70 ms after they were taken: each window finds the delay
+    to 20 ms (a slow shake pins it less), the meter gives it to 5 ms once MIN_WINDOWS
+    have; the attitude of another shake, or none, adds nothing."""
+    frames, focal, fps = sea
+    alt = DispersionAltimeter(dispersion="gravity-capillary")
+    rng = np.random.default_rng(2)
+    meter, wrong = LatencyMeter(), LatencyMeter()
+    taken = 100.0 + np.arange(30) / fps
+    for n in range(MIN_WINDOWS):
+        at, other = _shake(rng, 1.0), _shake(rng, 1.0)
+        shake = image_shake(_shaken(frames, focal, *at(taken)), alt)
+        assert shake is not None
+        assert meter.latency_s is None
+        lag = meter.add(shake, taken + 0.07, at, focal)
+        assert lag == pytest.approx(0.07, abs=0.0201)
+        assert wrong.add(shake, taken + 0.07, other, focal) is None
+        assert wrong.add(shake, taken + 0.07, lambda t: None, focal) is None
+    assert meter.windows == MIN_WINDOWS
+    assert meter.latency_s == pytest.approx(0.07, abs=0.0051)
+    assert wrong.windows == 0 and wrong.latency_s is None

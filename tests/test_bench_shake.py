@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_shake.py"
+LATENCY = BENCH.with_name("bench_latency.py")
 
 
 def _module():
@@ -83,3 +84,32 @@ def test_bad_options_are_refused_in_one_line(args, message) -> None:
                          timeout=120)
     assert res.returncode == 2
     assert message in res.stderr.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--delays-ms", "500"), "--delays-ms must be in [0, 400]"),
+    (("--delays-ms", "x"), "--delays-ms must be comma-separated numbers"),
+    (("--frames", "10"), "--frames must be at least 15"),
+    (("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
+])
+def test_the_latency_benchmark_refuses_bad_options_in_one_line(args, message) -> None:
+    res = subprocess.run([sys.executable, str(LATENCY), *args], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2
+    assert message in res.stderr.strip().splitlines()[-1]
+
+
+def test_the_latency_benchmark_finds_the_delay_it_was_given(tmp_path) -> None:
+    """Two shaking sequences arriving 80 ms late: each window measures about 80 ms, the
+    next sequence's attitude measures nothing; the file holds the rows."""
+    out = tmp_path / "latency.json"
+    res = subprocess.run([sys.executable, str(LATENCY), "--seeds", "101", "--sequences", "2",
+                          "--amplitudes", "1", "--delays-ms", "80", "--out", str(out)],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    import json
+
+    cell = json.loads(res.stdout)["by_amplitude_delay"]["1/80"]
+    assert cell["measured_share"] == 1.0 and cell["error_ms_max"] <= 20.0
+    assert cell["wrong_attitude_measured_share"] == 0.0
+    assert len(json.loads(out.read_text())["rows"]) == 2

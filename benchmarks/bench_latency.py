@@ -13,8 +13,8 @@ attitude the camera had (:class:`wavealt.live.latency.LatencyMeter`) and against
 sequence's (an attitude that is not the camera's, which must measure nothing).  Per
 amplitude and delay: the share of windows that measured a delay and how far off (median,
 90th percentile, largest), the share of wrong attitudes that measured one, and a stream's
-delay: the meter of each seed fed its sequences in order, after ``MIN_WINDOWS`` windows
-measured it and after all.  Exit code 0: a report, not a gate.
+delay: the meter of each seed fed its sequences in order, when it first gives one and
+after all.  Exit code 0: a report, not a gate.
 """
 
 from __future__ import annotations
@@ -78,28 +78,37 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
                         else float(np.sqrt((shake**2).sum(axis=1).mean())),
                         "measured_ms": None if got is None else 1e3 * got,
                         "wrong_measured_ms": None if false is None else 1e3 * false,
+                        "share": None if shake is None else round(right.last_share, 4),
+                        "wrong_share": None if shake is None else round(wrong.last_share, 4),
+                        "energy": right.energy,
+                        "wrong_explained": wrong.explained.tolist() if false is not None
+                        else None,
+                        "wrong_energy": wrong.energy,
                         "explained": right.explained.tolist() if got is not None else None,
                         "ms": ms})
     return out
 
 
-def _stream(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """A stream's meter over ``rows`` (one seed, amplitude and delay, in sequence order):
-    its delay after MIN_WINDOWS measured windows and after all, ms."""
-    from wavealt.live.latency import LATENCY_GRID_S, MIN_WINDOWS
+def _stream(rows: list[dict[str, Any]], prefix: str = "") -> dict[str, Any]:
+    """A stream's meter over ``rows`` (one seed, amplitude and delay, in sequence order;
+    ``prefix`` "wrong_": of the attitudes that are not the camera's):
+    the windows it had and its delay when it first gave one, and its delay after all, ms."""
+    from wavealt.live.latency import LatencyMeter
 
-    total = np.zeros(LATENCY_GRID_S.size)
+    meter = LatencyMeter()  # fed the windows' pooled terms, as LatencyMeter.add would
     first = None
-    n = 0
     for r in rows:
-        if r["explained"] is None:
+        if r[prefix + "explained"] is None:
             continue
-        total += np.asarray(r["explained"])  # as LatencyMeter.add pools them
-        n += 1
-        if n == MIN_WINDOWS:
-            first = 1e3 * float(LATENCY_GRID_S[int(np.argmax(total))])
-    last = 1e3 * float(LATENCY_GRID_S[int(np.argmax(total))]) if n >= MIN_WINDOWS else None
-    return {"windows": n, "after_min_windows_ms": first, "after_all_ms": last}
+        meter.explained += np.asarray(r[prefix + "explained"])
+        meter.energy += r[prefix + "energy"]
+        meter.windows += 1
+        if first is None and meter.latency_s is not None:
+            first = (meter.windows, 1e3 * meter.latency_s)
+    last = meter.latency_s
+    return {"windows": meter.windows,
+            "first_measured": None if first is None else {"windows": first[0], "ms": first[1]},
+            "after_all_ms": None if last is None else 1e3 * last}
 
 
 def summarise(rows: list[dict[str, Any]], seeds: tuple[int, ...]) -> dict[str, Any]:
@@ -120,6 +129,9 @@ def summarise(rows: list[dict[str, Any]], seeds: tuple[int, ...]) -> dict[str, A
             "wrong_attitude_measured_share": round(float(np.mean(
                 [r["wrong_measured_ms"] is not None for r in sel])), 3),
             "streams": {str(s): _stream([r for r in sel if r["seed"] == s]) for s in seeds},
+            # the next sequence's attitude, window after window: must never give a delay
+            "wrong_streams": {str(s): _stream([r for r in sel if r["seed"] == s], "wrong_")
+                              for s in seeds},
             "image_shake_ms_median": round(float(np.median([r["ms"] for r in sel])), 1)}
     return table
 
@@ -157,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
                "by_amplitude_delay": summarise(rows, a.seeds), "seconds": seconds}
     for r in rows:  # the pooled curves are in the summary's streams; the file stays small
         r.pop("explained")
+        r.pop("wrong_explained")
     report(a, summary, rows)
     return 0
 

@@ -232,6 +232,30 @@ def test_per_frame_attitude_levels_every_frame_alike() -> None:
     assert np.abs(frames - frames[:1]).max() > 0.3 * np.ptp(frames)
 
 
+def test_a_view_made_for_a_box_of_attitudes_levels_each_frame_within_it() -> None:
+    """``level_each``: frames at attitudes within the box a view was made for are levelled
+    alike, as the view made for those very attitudes levels them, up to the canvas; a frame
+    met again costs its remap only (its map is kept); frames and attitudes that do not
+    match are refused."""
+    nadir = cv2.GaussianBlur(np.random.default_rng(1).random((512, 512)).astype(np.float32),
+                             (0, 0), 2.0)[None]
+    roll, pitch = np.array([0.0, 1.5, 3.0, 0.7]), np.array([2.0, 1.0, 0.0, 0.4])
+    frames = np.stack([_remap(nadir, 256.0, _pixel_rays(256, 256.0)
+                              @ tilt_rotation(r, p).T)[0] for r, p in zip(roll, pitch)])
+    own = NadirView(pinhole(256, 256, 256.0), 256, 256, roll_deg=roll, pitch_deg=pitch)
+    assert np.array_equal(own.level_each(frames, roll, pitch), own(frames))
+    box = NadirView(pinhole(256, 256, 256.0), 256, 256, roll_deg=[0, 3, 0, 3],
+                    pitch_deg=[0, 0, 2, 2])
+    level = box.level_each(frames, roll, pitch)
+    inner = level[:, 8:-8, 8:-8]
+    assert np.abs(inner - inner[:1]).max() < 0.05 * np.ptp(inner)
+    assert len(box._maps) == 4
+    box.level_each(frames[::-1], roll[::-1], pitch[::-1])
+    assert len(box._maps) == 4  # the same attitudes: the same maps
+    with pytest.raises(ValueError, match="4 attitudes"):
+        box.level_each(frames[:3], roll, pitch)
+
+
 def test_cli_levels_a_tilted_clip_from_its_calibration(tmp_path, run_cli) -> None:
     from wavealt.io import write_frames_folder
 

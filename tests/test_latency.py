@@ -114,3 +114,20 @@ def test_the_meter_finds_the_delay_and_an_unrelated_attitude_measures_nothing(se
     assert meter.windows == MIN_WINDOWS
     assert meter.latency_s == pytest.approx(0.07, abs=0.0051)
     assert wrong.windows == 0 and wrong.latency_s is None
+
+
+def test_windows_that_disagree_give_no_delay(sea) -> None:
+    """Three windows that each measure a delay, but each a different one (0, 150 and 300
+    ms): pooled, no one delay explains their shake, so the meter gives none."""
+    frames, focal, fps = sea
+    alt = DispersionAltimeter(dispersion="gravity-capillary")
+    rng = np.random.default_rng(3)
+    meter = LatencyMeter()
+    taken = 100.0 + np.arange(30) / fps
+    found = []
+    for delay in (0.0, 0.15, 0.3):
+        at = _shake(rng, 1.0)
+        shake = image_shake(_shaken(frames, focal, *at(taken)), alt)
+        found.append(meter.add(shake, taken + delay, at, focal))
+    assert found == pytest.approx([0.0, 0.15, 0.3], abs=0.0201)
+    assert meter.windows == 3 and meter.latency_s is None

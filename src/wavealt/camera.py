@@ -333,6 +333,33 @@ class NadirView:
                                      borderMode=self._cv2.BORDER_REPLICATE)
         return out
 
+    def level_each(self, frames: np.ndarray, roll_deg: np.ndarray,
+                   pitch_deg: np.ndarray) -> np.ndarray:
+        """``(T, H, W[, 3])`` frames, each at its own attitude (``(T,)`` degrees), onto this
+        view's level canvas: a stream's windows, whose attitudes lie within those the view
+        was made for (its crop holds only pixels every one of those sees).  Each attitude's
+        map is kept (the newest 256): a frame met again in the next window costs only its
+        remap."""
+        frames = np.asarray(frames)
+        t, h, w = frames.shape[:3]
+        if (w, h) != self.size or np.shape(roll_deg) != (t,) or np.shape(pitch_deg) != (t,):
+            msg = (f"{t} frames of {w}x{h} px and {np.size(roll_deg)} attitudes; this view "
+                   f"was made for {self.size[0]}x{self.size[1]}")
+            raise ValueError(msg)
+        cache = self.__dict__.setdefault("_maps", {})
+        out = np.empty((t, self.out_size[1], self.out_size[0], *frames.shape[3:]),
+                       dtype=frames.dtype)
+        for i in range(t):
+            key = (float(roll_deg[i]), float(pitch_deg[i]))
+            if key not in cache:
+                cache[key] = self._make_map(tilt_rotation(*key))
+                while len(cache) > 256:
+                    del cache[next(iter(cache))]  # the oldest
+            m1, m2 = cache[key]
+            out[i] = self._cv2.remap(frames[i], m1, m2, self._cv2.INTER_LINEAR,
+                                     borderMode=self._cv2.BORDER_REPLICATE)
+        return out
+
 
 def _spanning(rotations: list[np.ndarray], roll: np.ndarray,
               pitch: np.ndarray) -> list[np.ndarray]:

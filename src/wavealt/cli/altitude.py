@@ -312,6 +312,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     calls = [0]
     link = None
     views: dict[tuple[int, int, float, float], Any] = {}
+    boxes: dict[tuple[int, int, float, float, float, float], Any] = {}
 
     # the file is read once, before the stream opens (a bad one fails first)
     lens = read_calibration(calibration) if calibration is not None else None
@@ -325,6 +326,22 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                                                          pitch_deg=pitch),
                           calib.camera_matrix[0, 0])
         return views[key]
+
+    def shaking_view(w: int, h: int, rolls: np.ndarray, pitches: np.ndarray) -> Any:
+        """A view for frames at the attitudes ``rolls, pitches`` (degrees): made for the
+        box of attitudes about their mean, both to the next half degree, so that the
+        windows of a stream share it (and its maps of the frames they share)."""
+        mr, mp = round(float(rolls.mean()) * 2) / 2, round(float(pitches.mean()) * 2) / 2
+        dr = math.ceil(float(np.abs(rolls - mr).max()) * 2) / 2
+        dp = math.ceil(float(np.abs(pitches - mp).max()) * 2) / 2
+        key = (w, h, mr, mp, dr, dp)
+        if key not in boxes:
+            if len(boxes) >= 64:
+                boxes.clear()
+            boxes[key] = NadirView(_calibration(w, h, focal_px, fov_deg, lens), w, h,
+                                   roll_deg=[mr - dr, mr + dr, mr - dr, mr + dr],
+                                   pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
+        return boxes[key]
 
     def estimate(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict[str, Any]:
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
@@ -360,10 +377,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         spread = None
         if per_frame is not None:
             rolls, pitches = np.degrees(per_frame[0]), np.degrees(per_frame[1])
-            h, w = frames.shape[1:3]
-            view = NadirView(_calibration(w, h, focal_px, fov_deg, lens), w, h,
-                             roll_deg=rolls, pitch_deg=pitches)
-            frames, f = view(frames), view.focal_px
+            view = shaking_view(frames.shape[2], frames.shape[1], rolls, pitches)
+            frames, f = view.level_each(frames, rolls, pitches), view.focal_px
             roll, pitch = round(float(rolls.mean()), 2), round(float(pitches.mean()), 2)
             spread = round(float(np.sqrt(np.mean((rolls - rolls.mean()) ** 2
                                                  + (pitches - pitches.mean()) ** 2))), 3)

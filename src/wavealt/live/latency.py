@@ -63,17 +63,23 @@ def detrend(series: np.ndarray) -> np.ndarray:
 class LatencyMeter:
     """The delay from a frame's exposure to its arrival, pooled over the windows that
     measure it (module docstring).  ``latency_s``: the delay, None until ``MIN_WINDOWS``
-    windows measured it; ``windows``: how many did."""
+    windows measured it and, pooled, the best delay explains ``MIN_EXPLAINED`` of their
+    shake's variance (windows that each found a different delay do not agree on one);
+    ``windows``: how many did; ``last_share``: the share the last window's best delay
+    explained (whether or not it measured one)."""
 
     def __init__(self) -> None:
         self.explained = np.zeros(LATENCY_GRID_S.size)
+        self.energy = 0.0
         self.windows = 0
+        self.last_share = float("nan")
 
     @property
     def latency_s(self) -> float | None:
-        if self.windows < MIN_WINDOWS:
+        best = int(np.argmax(self.explained))
+        if self.windows < MIN_WINDOWS or self.explained[best] < MIN_EXPLAINED * self.energy:
             return None
-        return float(LATENCY_GRID_S[int(np.argmax(self.explained))])
+        return float(LATENCY_GRID_S[best])
 
     def add(self, shake_px: np.ndarray, arrivals: np.ndarray,
             attitude_at: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None],
@@ -98,9 +104,11 @@ class LatencyMeter:
         pp = np.maximum((pred**2).sum(axis=(1, 2)), 1e-30)
         explained = dot**2 / pp / max(mm, 1e-30)
         best = int(np.argmax(explained))
+        self.last_share = float(explained[best])
         if explained[best] < MIN_EXPLAINED or abs(dot[best] / pp[best] - 1.0) > MAX_GAIN_ERROR:
             return None
         self.explained += explained * mm
+        self.energy += mm
         self.windows += 1
         return float(LATENCY_GRID_S[best])
 

@@ -95,7 +95,9 @@ regression per frame over the modes (:mod:`.jitter`); where the four corner tile
 the shift, it is taken out of their mode series before the periodogram (``+steadied``).
 The rotation's mean rate over the clip moves the image as a drift does, which a blind fit
 takes into its velocity and a velocity given does not hold: exact and prior fits of
-steadied frames are not trusted.
+steadied frames are not trusted.  The same measurement on frames as they came
+(:func:`image_shake`, :mod:`.shake`) serves a caller that levels each frame at an attitude
+measured elsewhere and must know when each frame was taken (:mod:`wavealt.live.latency`).
 
 References: Young, Rosenthal & Ziemer (J. Geophys. Res. 1985), dispersion-shell fits to
 image sequences; Senet, Seemann & Ziemer (IEEE TGRS 2001), the shell and its harmonics;

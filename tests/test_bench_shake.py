@@ -14,6 +14,7 @@ import pytest
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_shake.py"
 LATENCY = BENCH.with_name("bench_latency.py")
+LIVE = BENCH.with_name("bench_live_shake.py")
 
 
 def _module():
@@ -113,3 +114,16 @@ def test_the_latency_benchmark_finds_the_delay_it_was_given(tmp_path) -> None:
     assert cell["measured_share"] == 1.0 and cell["error_ms_max"] <= 20.0
     assert cell["wrong_attitude_measured_share"] == 0.0
     assert len(json.loads(out.read_text())["rows"]) == 2
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--sea", "second"), "only the realistic renderer's sea"),
+    (("--delay-ms", "-5"), "--delay-ms must be in [0, 400]"),
+    (("--window", "10"), "--window must be in [15, --frames]"),
+    (("--frames", "20", "--window", "30"), "--window must be in [15, --frames]"),
+])
+def test_the_live_shake_benchmark_refuses_bad_options_in_one_line(args, message) -> None:
+    res = subprocess.run([sys.executable, str(LIVE), *args], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2
+    assert message in res.stderr.strip().splitlines()[-1]

@@ -131,3 +131,43 @@ def test_windows_that_disagree_give_no_delay(sea) -> None:
         found.append(meter.add(shake, taken + delay, at, focal))
     assert found == pytest.approx([0.0, 0.15, 0.3], abs=0.0201)
     assert meter.windows == 3 and meter.latency_s is None
+
+
+def test_a_stream_is_levelled_at_its_mean_attitude_until_the_delay_is_known(sea) -> None:
+    """``VehicleLevelling``: with the delay given, each frame at the attitude of its moment
+    (the window's attitudes spread as the shake does); measured, each window at its mean
+    attitude until three windows have measured it, then frame by frame at the delay found;
+    with no attitude at all, nothing; a level camera with no lens, the frames as they
+    came."""
+    from wavealt.camera import pinhole
+    from wavealt.live.levelling import VehicleLevelling
+
+    frames, focal, fps = sea
+    at = _shake(np.random.default_rng(4), 1.0)
+    taken = 100.0 + np.arange(30) / fps
+    clip = _shaken(frames, focal, *at(taken))
+    alt = DispersionAltimeter(dispersion="gravity-capillary", attitude="level")
+
+    def calib(w: int, h: int):
+        return pinhole(w, h, focal)
+
+    given = VehicleLevelling(calib, latency_s=0.05, altimeter=alt)
+    out, f, info = given.level(clip, taken + 0.05, at)
+    rolls = np.degrees(at(taken)[0])
+    assert info["camera_latency_ms"] == 50.0 and info["roll_deg"] == pytest.approx(
+        rolls.mean(), abs=0.01)
+    assert info["attitude_sd_deg"] > 0.3 and out.shape[1] < SIDE and f < focal * 1.001
+    measured = VehicleLevelling(calib, altimeter=alt)
+    seen = []
+    for n in range(MIN_WINDOWS + 1):
+        rng_at = _shake(np.random.default_rng(10 + n), 1.0)
+        window = _shaken(frames, focal, *rng_at(taken))
+        _, _, info = measured.level(window, taken + 0.08, rng_at)
+        seen.append((info["camera_latency_ms"], info["attitude_sd_deg"]))
+    # the first windows at one attitude (their mean), then each frame at the delay found
+    assert seen[0] == ("", "") and seen[1] == ("", "")
+    assert seen[-1][0] == pytest.approx(80.0, abs=5.0) and seen[-1][1] > 0.3
+    assert measured.level(clip, taken, lambda t: None) is None
+    still = VehicleLevelling(calib)
+    flat, f0, info = still.level(clip, taken, lambda t: (np.zeros(len(t)), np.zeros(len(t))))
+    assert flat is clip and f0 == focal and (info["roll_deg"], info["pitch_deg"]) == (0.0, 0.0)

@@ -273,15 +273,12 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
-    import numpy as np
-
     from wavealt.altimetry.dispersion import DispersionAltimeter, warm_up
     from wavealt.camera import MAX_YAW_RATE_DPS as MAX_YAW
     from wavealt.camera import NadirView, read_calibration
     from wavealt.io import check_output_folder
-    from wavealt.altimetry.dispersion import image_shake
     from wavealt.live import LIVE_FILE, run_live
-    from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, LatencyMeter
+    from wavealt.live.levelling import VehicleLevelling
 
     if attitude is not None:
         msg = "--attitude is a log for recorded input; live, use --tilt-from-vehicle"
@@ -307,15 +304,15 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     sigma = velocity_sigma_mps
     if velocity_from_vehicle and sigma is None:
         sigma = 1.0
-    # the camera's delay behind ATTITUDE, measured where not given (wavealt.live.latency)
-    meter = LatencyMeter() if tilt_from_vehicle and latency_s is None else None
-    calls = [0]
     link = None
     views: dict[tuple[int, int, float, float], Any] = {}
-    boxes: dict[tuple[int, int, float, float, float, float], Any] = {}
 
     # the file is read once, before the stream opens (a bad one fails first)
     lens = read_calibration(calibration) if calibration is not None else None
+    # each frame at the vehicle's attitude of its moment, the camera's delay behind ATTITUDE
+    # measured where not given (wavealt.live.levelling)
+    vehicle = VehicleLevelling(lambda w, h: _calibration(w, h, focal_px, fov_deg, lens),
+                               latency_s=latency_s, altimeter=est[True])
 
     def camera(w: int, h: int, roll: float, pitch: float) -> tuple[Any, float]:
         key = (w, h, roll, pitch)
@@ -327,76 +324,36 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                           calib.camera_matrix[0, 0])
         return views[key]
 
-    def shaking_view(w: int, h: int, rolls: np.ndarray, pitches: np.ndarray) -> Any:
-        """A view for frames at the attitudes ``rolls, pitches`` (degrees): made for the
-        box of attitudes about their mean, both to the next half degree, so that the
-        windows of a stream share it (and its maps of the frames they share)."""
-        mr, mp = round(float(rolls.mean()) * 2) / 2, round(float(pitches.mean()) * 2) / 2
-        dr = math.ceil(float(np.abs(rolls - mr).max()) * 2) / 2
-        dp = math.ceil(float(np.abs(pitches - mp).max()) * 2) / 2
-        key = (w, h, mr, mp, dr, dp)
-        if key not in boxes:
-            if len(boxes) >= 64:
-                boxes.clear()
-            boxes[key] = NadirView(_calibration(w, h, focal_px, fov_deg, lens), w, h,
-                                   roll_deg=[mr - dr, mr + dr, mr - dr, mr + dr],
-                                   pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
-        return boxes[key]
-
     def estimate(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict[str, Any]:
         roll, pitch = roll_deg or 0.0, pitch_deg or 0.0
         known = (roll_deg, pitch_deg) != (None, None)
         vel, sd, yaw = velocity, sigma or 0.0, yaw_rate_dps
-        per_frame = lag = None
+        levelled = None
         if link is not None:
             state = link.poll()
-            if tilt_from_vehicle and state.attitude_rad is not None:
-                roll, pitch = (math.degrees(a) for a in state.attitude_rad[:2])
-                known = True
             if tilt_from_vehicle:
-                lag = latency_s if meter is None else meter.latency_s
-                if meter is not None and (meter.windows < SETTLE_WINDOWS
-                                          or calls[0] % MEASURE_EVERY == 0):
-                    # the frames' own shake against ATTITUDE: when they were taken
-                    f0 = camera(frames.shape[2], frames.shape[1], 0.0, 0.0)[1]
-                    shake = image_shake(frames, est[True]) if len(frames) >= 15 else None
-                    if shake is not None:
-                        meter.add(shake, arrivals, link.attitude_at, f0)
-                calls[0] += 1
-                if lag is not None:  # each frame at the attitude it was taken with
-                    per_frame = link.attitude_at(arrivals - lag)
-                else:  # the delay not yet known: the window at its mean attitude
-                    now = link.attitude_at(arrivals)
-                    if now is not None:
-                        roll, pitch = (math.degrees(float(np.mean(a))) for a in now)
-            if tilt_from_vehicle and state.yaw_rate_rad_s is not None:
-                # a spin past the altimeter's reach is turned back as far as it goes
-                yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
+                if state.yaw_rate_rad_s is not None:
+                    # a spin past the altimeter's reach is turned back as far as it goes
+                    yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
+                levelled = vehicle.level(frames, arrivals, link.attitude_at,
+                                         state.attitude_rad and state.attitude_rad[:2])
             if velocity_from_vehicle:
                 vel = link.camera_velocity_mps()
-        spread = None
-        if per_frame is not None:
-            rolls, pitches = np.degrees(per_frame[0]), np.degrees(per_frame[1])
-            view = shaking_view(frames.shape[2], frames.shape[1], rolls, pitches)
-            frames, f = view.level_each(frames, rolls, pitches), view.focal_px
-            roll, pitch = round(float(rolls.mean()), 2), round(float(pitches.mean()), 2)
-            spread = round(float(np.sqrt(np.mean((rolls - rolls.mean()) ** 2
-                                                 + (pitches - pitches.mean()) ** 2))), 3)
+        info: dict[str, Any] = {}
+        if levelled is not None:
+            frames, f, info = levelled
             known = True
         else:
             roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
             view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)
             if view is not None:
                 frames, f = view(frames), view.focal_px
+                info = {"roll_deg": roll, "pitch_deg": pitch}
         res = est[known].estimate(frames, fps=fps, focal_px=f, velocity_mps=vel,
                                   velocity_sigma_mps=sd if vel is not None else 0.0,
                                   readout_s=readout_s,
                                   yaw_rate_dps=yaw).to_dict()
-        if view is not None:
-            res["roll_deg"], res["pitch_deg"] = roll, pitch
-            res["attitude_sd_deg"] = "" if spread is None else spread
-        if tilt_from_vehicle:
-            res["camera_latency_ms"] = "" if lag is None else round(1e3 * lag, 1)
+        res.update(info)
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

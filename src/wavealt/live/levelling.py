@@ -1,0 +1,133 @@
+"""A camera fixed to the airframe, its frames levelled at the vehicle's attitude as they come.
+
+Each frame is levelled at the attitude of the moment it was taken: its arrival less the
+camera's delay, given or measured from the frames' own shake (:mod:`.latency`).  Until the
+delay is known, a window is levelled at its mean attitude (a tilt is levelled; a shake is
+left for the altimeter to steady), or at the latest attitude heard where the history does
+not cover the window.  A stream's windows share one view per half-degree box of attitudes
+and each attitude's map (:meth:`wavealt.camera.NadirView.level_each`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, LatencyMeter
+
+#: Views kept per stream (each a half-degree box of attitudes, or one attitude).
+MAX_VIEWS = 64
+
+AttitudeAt = Callable[[np.ndarray], "tuple[np.ndarray, np.ndarray] | None"]
+
+
+class VehicleLevelling:
+    """Level a stream's windows at the vehicle's attitude.
+
+    Parameters
+    ----------
+    calibration : callable
+        ``calibration(w, h)``: the camera (:class:`wavealt.camera.Calibration`) of ``w x h``
+        frames.
+    latency_s : float, optional
+        The camera's delay from exposure to arrival, s, taken as the truth; None: measured
+        (:class:`.latency.LatencyMeter`).
+    altimeter : DispersionAltimeter, optional
+        Whose signal, tiles and working scale measure the frames' shake.
+    """
+
+    def __init__(self, calibration: Callable[[int, int], Any], *,
+                 latency_s: float | None = None, altimeter: Any = None) -> None:
+        self.calibration = calibration
+        self.latency_s = latency_s
+        self.meter = LatencyMeter() if latency_s is None else None
+        self.altimeter = altimeter
+        self.windows = 0
+        self._views: dict[tuple[Any, ...], Any] = {}
+
+    @property
+    def delay_s(self) -> float | None:
+        """The delay used: given, or measured (None until it is)."""
+        return self.latency_s if self.meter is None else self.meter.latency_s
+
+    def _view(self, w: int, h: int, rolls: np.ndarray, pitches: np.ndarray) -> Any:
+        """A view for frames at ``rolls, pitches`` (degrees): made for the box of attitudes
+        about their mean, both to the next half degree, so that a stream's windows share it
+        (and the maps of the frames they share)."""
+        from wavealt.camera import NadirView
+
+        mr, mp = round(float(rolls.mean()) * 2) / 2, round(float(pitches.mean()) * 2) / 2
+        dr = math.ceil(float(np.abs(rolls - mr).max()) * 2) / 2
+        dp = math.ceil(float(np.abs(pitches - mp).max()) * 2) / 2
+        key = (w, h, mr, mp, dr, dp)
+        if key not in self._views:
+            if len(self._views) >= MAX_VIEWS:
+                self._views.clear()
+            self._views[key] = NadirView(self.calibration(w, h), w, h,
+                                         roll_deg=[mr - dr, mr + dr, mr - dr, mr + dr],
+                                         pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
+        return self._views[key]
+
+    def measure(self, frames: np.ndarray, arrivals: np.ndarray,
+                attitude_at: AttitudeAt) -> None:
+        """Add a window to the delay's measurement (every window until ``SETTLE_WINDOWS``
+        have measured it, then every ``MEASURE_EVERY``-th; clips under 15 frames, and a
+        delay given, not at all)."""
+        if self.meter is None or len(frames) < 15:
+            return
+        if self.meter.windows >= SETTLE_WINDOWS and self.windows % MEASURE_EVERY:
+            return
+        from wavealt.altimetry.dispersion import image_shake
+
+        h, w = frames.shape[1:3]
+        shake = image_shake(frames, self.altimeter)
+        if shake is not None:
+            focal = float(self.calibration(w, h).camera_matrix[0, 0])
+            self.meter.add(shake, arrivals, attitude_at, focal)
+
+    def level(self, frames: np.ndarray, arrivals: np.ndarray, attitude_at: AttitudeAt,
+              latest: tuple[float, float] | None = None
+              ) -> tuple[np.ndarray, float, dict[str, Any]] | None:
+        """``frames`` ``(T, H, W[, 3])`` that arrived at ``arrivals`` (s, the attitude's
+        clock) levelled at the attitude (``attitude_at(times)``: roll and pitch, rad, or None
+        where it cannot tell; ``latest``: the latest heard, rad): the frames, their focal
+        length, px, and what was done (``roll_deg`` / ``pitch_deg`` the window's mean,
+        ``attitude_sd_deg`` the frames' spread about it or "" for one attitude,
+        ``camera_latency_ms`` the delay used or "").  None where no attitude is known."""
+        self.measure(frames, arrivals, attitude_at)
+        self.windows += 1
+        h, w = frames.shape[1:3]
+        delay = self.delay_s
+        info: dict[str, Any] = {"attitude_sd_deg": "",
+                                "camera_latency_ms": "" if delay is None
+                                else round(1e3 * delay, 1)}
+        each = attitude_at(arrivals - delay) if delay is not None else None
+        if each is not None:  # each frame at the attitude it was taken with
+            rolls, pitches = np.degrees(each[0]), np.degrees(each[1])
+            view = self._view(w, h, rolls, pitches)
+            info["attitude_sd_deg"] = round(float(np.sqrt(np.mean(
+                (rolls - rolls.mean()) ** 2 + (pitches - pitches.mean()) ** 2))), 3)
+            info["roll_deg"] = round(float(rolls.mean()), 2)
+            info["pitch_deg"] = round(float(pitches.mean()), 2)
+            return view.level_each(frames, rolls, pitches), view.focal_px, info
+        now = attitude_at(arrivals)
+        if now is not None:  # the delay not yet known: the window at its mean attitude
+            roll, pitch = (math.degrees(float(np.mean(a))) for a in now)
+        elif latest is not None:
+            roll, pitch = (math.degrees(a) for a in latest)
+        else:
+            return None
+        roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a view per half degree
+        info["roll_deg"], info["pitch_deg"] = roll, pitch
+        calib = self.calibration(w, h)
+        if (roll, pitch) == (0.0, 0.0) and not np.any(calib.dist_coeffs):
+            return frames, float(calib.camera_matrix[0, 0]), info  # nothing to undo
+        view = self._view(w, h, np.array([roll]), np.array([pitch]))
+        return view.level_each(frames, np.full(len(frames), roll),
+                               np.full(len(frames), pitch)), view.focal_px, info
+
+
+__all__ = ["MAX_VIEWS", "VehicleLevelling"]

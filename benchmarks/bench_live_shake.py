@@ -114,9 +114,9 @@ def parse_args(argv: list[str] | None = None):
     ap.add_argument("--window", type=int, default=30)
     ap.add_argument("--step", type=int, default=5)
     a = ap.parse_args(argv)
-    a.amplitudes = check_sea_args(ap, a, a.amplitudes, "amplitudes")
     if a.sea != "realistic":
         ap.error("--sea: only the realistic renderer's sea is long enough for a stream")
+    a.amplitudes = check_sea_args(ap, a, a.amplitudes, "amplitudes")
     if any(not (math.isfinite(r) and 0 < r <= 5) for r in a.amplitudes):
         ap.error(f"--amplitudes must be in (0, 5] degrees; got {a.amplitudes}")
     if not (math.isfinite(a.delay_ms) and 0 <= a.delay_ms <= 400):

@@ -51,9 +51,10 @@ def _attitude(seed: int, index: int, amp: float):
 
 def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
                  delays_ms: tuple[float, ...], frames: int,
-                 sea_name: str = "realistic") -> list[dict[str, Any]]:
+                 sea_name: str = "realistic", min_ratio: float | None = None
+                 ) -> list[dict[str, Any]]:
     from wavealt.altimetry.dispersion import DispersionAltimeter, image_shake
-    from wavealt.live.latency import LatencyMeter
+    from wavealt.live.latency import SHAKE_MIN_RATIO, LatencyMeter
 
     seed, index = task
     sea, truth = SEAS[sea_name](seed, index, frames)
@@ -65,7 +66,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
         deg = shake_at(seed, index, amp, taken - T0)
         clip = np.clip(shaken_view(sea, deg, focal, CAMERA_PX), 0.0, 1.0)
         t0 = time.perf_counter()
-        shake = image_shake(clip, est)
+        shake = image_shake(clip, est, SHAKE_MIN_RATIO if min_ratio is None else min_ratio)
         ms = 1e3 * (time.perf_counter() - t0)
         for delay in delays_ms:
             right, wrong = LatencyMeter(), LatencyMeter()
@@ -142,6 +143,9 @@ def parse_args(argv: list[str] | None = None):
                     help="roll and pitch amplitudes, degrees, comma-separated")
     ap.add_argument("--delays-ms", default="0,60,150,300",
                     help="the frames' delays behind the attitude, ms, comma-separated")
+    ap.add_argument("--min-ratio", type=float, default=None,
+                    help="the tiles' agreement asked of a shake before it is matched "
+                         "(image_shake's min_ratio) [live.latency.SHAKE_MIN_RATIO]")
     a = ap.parse_args(argv)
     a.amplitudes = check_sea_args(ap, a, a.amplitudes, "amplitudes")
     try:
@@ -152,6 +156,8 @@ def parse_args(argv: list[str] | None = None):
         ap.error(f"--amplitudes must be in (0, 5] degrees; got {a.amplitudes}")
     if any(not (math.isfinite(d) and 0 <= d <= 400) for d in a.delays_ms):
         ap.error(f"--delays-ms must be in [0, 400] ms (the meter's reach); got {a.delays_ms}")
+    if a.min_ratio is not None and not (math.isfinite(a.min_ratio) and a.min_ratio > 0):
+        ap.error(f"--min-ratio must be a positive number; got {a.min_ratio}")
     if a.frames < 15:
         ap.error(f"--frames must be at least 15 (the shake's measurement); got {a.frames}")
     return a
@@ -160,12 +166,13 @@ def parse_args(argv: list[str] | None = None):
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     job = partial(run_sequence, amplitudes=a.amplitudes, delays_ms=a.delays_ms,
-                  frames=a.frames, sea_name=a.sea)
+                  frames=a.frames, sea_name=a.sea, min_ratio=a.min_ratio)
     rows, seconds = run_rows(a, job)
     summary = {"benchmark": "latency", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences,
                "amplitudes_deg": list(a.amplitudes), "delays_ms": list(a.delays_ms),
                "frames": a.frames, "sea": a.sea, "camera_px": CAMERA_PX,
+               "min_ratio": a.min_ratio,
                "by_amplitude_delay": summarise(rows, a.seeds), "seconds": seconds}
     for r in rows:  # the pooled curves are in the summary's streams; the file stays small
         r.pop("explained")

@@ -34,6 +34,14 @@ MIN_EXPLAINED = 0.8
 MAX_GAIN_ERROR = 0.3
 #: Windows that measured a delay before it is used.
 MIN_WINDOWS = 3
+#: The corner tiles' agreement on a shake (mean square over the noise of their mean,
+#: :func:`wavealt.altimetry.dispersion.jitter.common_shake`) before a window's shake is
+#: matched: half the altimeter's own bar, since the match itself rejects a shake the
+#: attitude does not explain.  Chosen on the tuning seeds (realistic 101 / 202, second
+#: generator 1000 / 2000, 40 sequences, 0.2-1 deg): against the altimeter's 8, windows
+#: measured 0.44-1.00 -> 0.60-1.00 (realistic) and 0.01-0.42 -> 0.07-0.51 (second
+#: generator), the largest error the same (30-35 ms); at 2 it reached 70 ms.
+SHAKE_MIN_RATIO = 4.0
 #: A live stream measures every window until this many have measured the delay, then every
 #: ``MEASURE_EVERY``-th (the delay does not change; about 5 ms a 30-frame 256^2 window).
 SETTLE_WINDOWS = 10
@@ -114,4 +122,4 @@ class LatencyMeter:
 
 
 __all__ = ["LATENCY_GRID_S", "MAX_GAIN_ERROR", "MEASURE_EVERY", "MIN_EXPLAINED", "MIN_WINDOWS",
-           "SETTLE_WINDOWS", "LatencyMeter", "attitude_shift", "detrend"]
+           "SETTLE_WINDOWS", "SHAKE_MIN_RATIO", "LatencyMeter", "attitude_shift", "detrend"]

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, LatencyMeter
+from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, SHAKE_MIN_RATIO, LatencyMeter
 
 #: Views kept per stream (each a half-degree box of attitudes, or one attitude).
 MAX_VIEWS = 64
@@ -83,7 +83,7 @@ class VehicleLevelling:
         from wavealt.altimetry.dispersion import image_shake
 
         h, w = frames.shape[1:3]
-        shake = image_shake(frames, self.altimeter)
+        shake = image_shake(frames, self.altimeter, SHAKE_MIN_RATIO)
         if shake is not None:
             focal = float(self.calibration(w, h).camera_matrix[0, 0])
             self.meter.add(shake, arrivals, attitude_at, focal)

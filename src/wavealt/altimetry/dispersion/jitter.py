@@ -142,18 +142,18 @@ def common_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
     return mean, float((mean**2).sum()) / max(noise, 1e-30)
 
 
-def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray | None]:
+def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
+                 min_ratio: float = JITTER_MIN_RATIO) -> tuple[np.ndarray, np.ndarray | None]:
     """The tiles' mode series ``series`` ``(tiles, T, modes)`` complex64 with the shake they
     share removed, mean-free again (a new array), and the shake removed ``(T, 2)`` px; the
-    series themselves and None where the tiles share none (``JITTER_MIN_RATIO``).
+    series themselves and None where the tiles share none (``min_ratio``).
     ``JITTER_PASSES`` passes, each on what the last left: a mode's steady step is read on
     the shaken series, and the first pass reads about nine tenths of the shake."""
     total = None
     out = series
     for _ in range(JITTER_PASSES):
         shake, ratio = common_shake(out, kx, ky)
-        if not np.all(np.isfinite(shake)) or (total is None and not ratio >= JITTER_MIN_RATIO):
+        if not np.all(np.isfinite(shake)) or (total is None and not ratio >= min_ratio):
             break  # no shake the tiles agree on (later passes refine the one found)
         phase = kx[None, :] * shake[:, :1] + ky[None, :] * shake[:, 1:]  # (T, modes)
         out = out * _phasor(phase)[None]

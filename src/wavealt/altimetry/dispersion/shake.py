@@ -14,21 +14,23 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_frames
-from wavealt.altimetry.dispersion.constants import JITTER_MIN_FRAMES
+from wavealt.altimetry.dispersion.constants import JITTER_MIN_FRAMES, JITTER_MIN_RATIO
 from wavealt.altimetry.dispersion.jitter import remove_shake
 from wavealt.altimetry.dispersion.kernel import _one_blas_thread
 from wavealt.altimetry.dispersion.signal import bin_frames, working_bin
 from wavealt.altimetry.dispersion.spectra import _corners, _windowed_modes
 
 
-def image_shake(frames: Any, altimeter: Any = None) -> np.ndarray | None:
+def image_shake(frames: Any, altimeter: Any = None,
+                min_ratio: float = JITTER_MIN_RATIO) -> np.ndarray | None:
     """The image shift of each frame of ``frames`` ``(T, H, W[, 3])`` that the corner tiles
     agree on, ``(T, 2)`` px of the frames given (x, y), less its mean motion over the clip
     (no trend, mean zero): the shake the altimeter would remove before its fit, with the
     altimeter's signal, tiles and working scale (``altimeter``: a
     :class:`~wavealt.altimetry.dispersion.DispersionAltimeter`, the default one when None).
-    None where the tiles share no shift standing above their own noise
-    (``JITTER_MIN_RATIO``).  A content that moves right and down has positive shifts."""
+    None where the tiles share no shift standing ``min_ratio`` times above their own noise
+    (in mean square; the altimeter's bar ``JITTER_MIN_RATIO`` by default).  A content that
+    moves right and down has positive shifts."""
     if altimeter is None:
         from wavealt.altimetry.dispersion.altimeter import DispersionAltimeter
 
@@ -46,7 +48,7 @@ def image_shake(frames: Any, altimeter: Any = None) -> np.ndarray | None:
         kx, ky, _, _, idx = altimeter._plane(*parts[0].shape[1:])
         series = _windowed_modes(parts, idx)
         series -= series.mean(axis=1, keepdims=True)
-        _, shake = remove_shake(series, kx[idx], ky[idx])
+        _, shake = remove_shake(series, kx[idx], ky[idx], min_ratio)
     return None if shake is None else shake * b
 
 

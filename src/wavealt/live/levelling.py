@@ -73,12 +73,14 @@ class VehicleLevelling:
 
     def measure(self, frames: np.ndarray, arrivals: np.ndarray,
                 attitude_at: AttitudeAt) -> None:
-        """Add a window to the delay's measurement (every window until ``SETTLE_WINDOWS``
-        have measured it, then every ``MEASURE_EVERY``-th; clips under 15 frames, and a
-        delay given, not at all)."""
+        """Add a window to the delay's measurement: every window until ``SETTLE_WINDOWS``
+        have measured it (at most the stream's first ``4 SETTLE_WINDOWS``: a camera that
+        does not shake enough is not measured at every window's cost), then every
+        ``MEASURE_EVERY``-th; clips under 15 frames, and a delay given, not at all."""
         if self.meter is None or len(frames) < 15:
             return
-        if self.meter.windows >= SETTLE_WINDOWS and self.windows % MEASURE_EVERY:
+        settling = self.meter.windows < SETTLE_WINDOWS and self.windows < 4 * SETTLE_WINDOWS
+        if not settling and self.windows % MEASURE_EVERY:
             return
         from wavealt.altimetry.dispersion import image_shake
 

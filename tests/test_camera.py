@@ -71,6 +71,33 @@ def test_unturn_yaw_puts_every_frame_where_the_middle_one_sees_the_sea() -> None
     assert unturn_yaw(gray_u8, 0.0, fps).tobytes() == gray_u8.tobytes()
 
 
+def test_unturn_headings_takes_any_heading_log() -> None:
+    """A heading per frame: a steady turn's headings are the steady turn's frames; an
+    unsteady turn (the heading back and forth) puts a point seen through the link's axes
+    where the reference heading shows it; a log of the wrong length is refused."""
+    from wavealt.camera import unturn_headings, unturn_yaw
+    from wavealt.live.mavlink import ned_to_image
+
+    size = 81
+    c = (size - 1) / 2
+    yy, xx = np.mgrid[0:size, 0:size].astype(float)
+    rng = np.random.default_rng(0)
+    frames = rng.random((5, size, size)).astype(np.float32)
+    steady = [40.0 * (t - 2) / 10.0 for t in range(5)]
+    assert np.array_equal(unturn_headings(frames, steady), unturn_yaw(frames, 40.0, 10.0))
+    heads = [0.0, 6.0, -3.0, 9.0, -7.0]
+    point_ned = (-12.0, 25.0, 0.0)
+    seen = []
+    for d in heads:
+        x, y = ned_to_image(point_ned, math.radians(d))
+        seen.append(np.exp(-((xx - c - x) ** 2 + (yy - c - y) ** 2) / 6.0))
+    back = unturn_headings(np.stack(seen).astype(np.float32), heads)
+    where = {np.unravel_index(np.argmax(f), f.shape) for f in back}
+    assert len(where) == 1  # every frame where heading 0 sees the point
+    with pytest.raises(ValueError, match="4 headings for 5 frames"):
+        unturn_headings(frames, heads[:4])
+
+
 @pytest.mark.parametrize(("rate", "fps", "match"), [
     (200.0, 30.0, "yaw_rate_dps"), (float("nan"), 30.0, "yaw_rate_dps"), (10.0, 0.0, "fps")])
 def test_unturn_yaw_refuses_bad_rates(rate, fps, match) -> None:

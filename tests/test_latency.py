@@ -157,6 +157,15 @@ def test_a_stream_is_levelled_at_its_mean_attitude_until_the_delay_is_known(sea)
     assert info["camera_latency_ms"] == 50.0 and info["roll_deg"] == pytest.approx(
         rolls.mean(), abs=0.01)
     assert info["attitude_sd_deg"] > 0.3 and out.shape[1] < SIDE and f < focal * 1.001
+    assert "yaw_rate_dps" not in info  # no heading given: the turn is left to the altimeter
+    # with the heading (turning right at 20 deg/s), each frame also turned back to the
+    # middle moment's heading, as a steady turn's frames are
+    from wavealt.camera import unturn_yaw
+
+    turned, _, info = given.level(clip, taken + 0.05, at,
+                                  heading_at=lambda t: np.radians(20.0) * (t - 100.0))
+    assert info["yaw_rate_dps"] == pytest.approx(20.0, abs=1e-3)
+    assert np.abs(turned - unturn_yaw(out, 20.0, fps)).max() < 1e-3
     measured = VehicleLevelling(calib, altimeter=alt)
     seen = []
     for n in range(MIN_WINDOWS + 1):

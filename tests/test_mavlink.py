@@ -131,11 +131,15 @@ def test_attitude_history_is_interpolated_on_our_clock() -> None:
         def roll_at(t: float) -> float:
             return 0.02 * math.sin(2 * math.pi * 1.5 * t)
 
+        def yaw_at(t: float) -> float:  # turning right at 1 rad/s through +-pi
+            return math.remainder(3.0 + 1.0 * (t - 100.0), 2 * math.pi)
+
         t0 = time.monotonic() - 100.0  # the autopilot booted 100 s ago
         start = time.monotonic()
         while time.monotonic() - start < 1.0:
             t = time.monotonic() - t0
-            autopilot.mav.attitude_send(int(1000 * t), roll_at(t), -0.01, 0.0, 0.0, 0.0, 0.0)
+            autopilot.mav.attitude_send(int(1000 * t), roll_at(t), -0.01, yaw_at(t), 0.0, 0.0,
+                                        0.0)
             link.poll()
             time.sleep(0.02)
         link.poll()
@@ -145,6 +149,11 @@ def test_attitude_history_is_interpolated_on_our_clock() -> None:
         # the delay of the loopback (well under 5 ms) is all that is left
         assert np.allclose(got[0], [roll_at(t - t0) for t in times], atol=0.02 * 0.05)
         assert np.allclose(got[1], -0.01)
+        # the heading unwrapped through +-pi: one steady turn, 3 rad + 1 rad/s
+        heads = link.heading_at(times)
+        assert np.ptp(np.diff(heads)) < 0.005 and np.all(np.diff(heads) > 0)  # no jump of 2 pi
+        assert np.allclose(np.remainder(heads - (3.0 + (times - t0 - 100.0)) + np.pi,
+                                        2 * np.pi) - np.pi, 0.0, atol=0.005)
         assert link.attitude_at([start - 5.0, start + 0.5]) is None  # before the history
         assert link.attitude_at([start + 0.5, time.monotonic() + 1.0]) is None  # after it
         # a gap of 0.3 s in the stream: the moments across it are not covered

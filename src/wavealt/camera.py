@@ -438,16 +438,29 @@ def unturn_yaw(frames: np.ndarray, yaw_rate_dps: float, fps: float) -> np.ndarra
     where the middle frame does.  Near the corners the sea turns out of view: those pixels
     mirror the frame's edge (what no frame saw).  ``(T, H, W[, 3])`` in, the same out.
     """
-    import cv2  # deferred: only for a yawing camera
-
     yaw_rate_dps = check_finite_number("yaw_rate_dps", yaw_rate_dps, low=-MAX_YAW_RATE_DPS,
                                        high=MAX_YAW_RATE_DPS)
     fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+    t = frames.shape[0]
+    return unturn_headings(frames, [yaw_rate_dps * (i - (t - 1) / 2.0) / fps
+                                    for i in range(t)])
+
+
+def unturn_headings(frames: np.ndarray, headings_deg: np.ndarray | list[float]) -> np.ndarray:
+    """:func:`unturn_yaw` of frames whose heading (degrees, positive the nose right) each
+    is ``headings_deg[i]`` from the one they are turned back to (a heading log, as a
+    vehicle's ``ATTITUDE.yaw`` gives it, less the middle frame's): frame ``i`` is sampled
+    where ``d = headings_deg[i]`` moved the scene."""
+    import cv2  # deferred: only for a yawing camera
+
     t, h, w = frames.shape[:3]
+    if len(headings_deg) != t:
+        msg = f"{len(headings_deg)} headings for {t} frames"
+        raise ValueError(msg)
     cx, cy = (w - 1) / 2.0, (h - 1) / 2.0
     out = np.empty_like(frames)
     for i in range(t):
-        d = math.radians(yaw_rate_dps * (i - (t - 1) / 2.0) / fps)
+        d = math.radians(headings_deg[i])
         c, s = math.cos(d), math.sin(d)
         # out(x, y) = frame(c x + s y, -s x + c y), coordinates from the centre
         m = np.array([[c, s, cx - c * cx - s * cy], [-s, c, cy + s * cx - c * cy]])

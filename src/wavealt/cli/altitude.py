@@ -273,6 +273,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
+    import numpy as np
+
     from wavealt.altimetry.dispersion import DispersionAltimeter, warm_up
     from wavealt.camera import MAX_YAW_RATE_DPS as MAX_YAW
     from wavealt.camera import NadirView, read_calibration
@@ -336,13 +338,20 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                     # a spin past the altimeter's reach is turned back as far as it goes
                     yaw = max(-MAX_YAW, min(MAX_YAW, math.degrees(state.yaw_rate_rad_s)))
                 levelled = vehicle.level(frames, arrivals, link.attitude_at,
-                                         state.attitude_rad and state.attitude_rad[:2])
+                                         state.attitude_rad and state.attitude_rad[:2],
+                                         link.heading_at)
             if velocity_from_vehicle:
-                vel = link.camera_velocity_mps()
+                # in the axes of the frames' middle moment, which every turn is taken back to
+                middle = 0.5 * (arrivals[0] + arrivals[-1]) - (vehicle.delay_s or 0.0)
+                heading = link.heading_at(np.array([middle]))
+                vel = link.camera_velocity_mps(
+                    yaw_rad=None if heading is None else float(heading[0]))
         info: dict[str, Any] = {}
         if levelled is not None:
             frames, f, info = levelled
             known = True
+            if "yaw_rate_dps" in info:
+                yaw = 0.0  # each frame was turned back at its own heading
         else:
             roll, pitch = round(roll * 2) / 2, round(pitch * 2) / 2  # a new view per 0.5 deg
             view, f = camera(frames.shape[2], frames.shape[1], roll, pitch)

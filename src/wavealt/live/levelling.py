@@ -91,14 +91,20 @@ class VehicleLevelling:
             self.meter.add(shake, arrivals, attitude_at, focal)
 
     def level(self, frames: np.ndarray, arrivals: np.ndarray, attitude_at: AttitudeAt,
-              latest: tuple[float, float] | None = None
+              latest: tuple[float, float] | None = None,
+              heading_at: Callable[[np.ndarray], np.ndarray | None] | None = None
               ) -> tuple[np.ndarray, float, dict[str, Any]] | None:
         """``frames`` ``(T, H, W[, 3])`` that arrived at ``arrivals`` (s, the attitude's
         clock) levelled at the attitude (``attitude_at(times)``: roll and pitch, rad, or None
         where it cannot tell; ``latest``: the latest heard, rad): the frames, their focal
         length, px, and what was done (``roll_deg`` / ``pitch_deg`` the window's mean,
         ``attitude_sd_deg`` the frames' spread about it or "" for one attitude,
-        ``camera_latency_ms`` the delay used or "").  None where no attitude is known."""
+        ``camera_latency_ms`` the delay used or "").  None where no attitude is known.
+
+        Frame by frame, with ``heading_at(times)`` (the heading, rad, positive the nose
+        right, or None), each frame is also turned back to the heading of the window's
+        middle moment (:func:`wavealt.camera.unturn_headings`), and ``yaw_rate_dps`` in what
+        was done is the window's mean turn rate: the frames no longer turn."""
         self.measure(frames, arrivals, attitude_at)
         self.windows += 1
         h, w = frames.shape[1:3]
@@ -114,7 +120,18 @@ class VehicleLevelling:
                 (rolls - rolls.mean()) ** 2 + (pitches - pitches.mean()) ** 2))), 3)
             info["roll_deg"] = round(float(rolls.mean()), 2)
             info["pitch_deg"] = round(float(pitches.mean()), 2)
-            return view.level_each(frames, rolls, pitches), view.focal_px, info
+            out = view.level_each(frames, rolls, pitches)
+            heads = heading_at(arrivals - delay) if heading_at is not None else None
+            if heads is not None:  # and turned back to the middle moment's heading
+                from wavealt.camera import unturn_headings
+
+                turn = np.degrees(heads - np.interp((len(heads) - 1) / 2.0,
+                                                    np.arange(len(heads)), heads))
+                if float(np.abs(turn).max()) > 1e-3:
+                    out = unturn_headings(out, turn)
+                span = float(arrivals[-1] - arrivals[0])
+                info["yaw_rate_dps"] = round(float(turn[-1] - turn[0]) / span, 3) if span else 0.0
+            return out, view.focal_px, info
         now = attitude_at(arrivals)
         if now is not None:  # the delay not yet known: the window at its mean attitude
             roll, pitch = (math.degrees(float(np.mean(a))) for a in now)

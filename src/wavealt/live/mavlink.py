@@ -63,7 +63,7 @@ class VehicleState:
     ``velocity_ned_mps``: (north, east, down) over ground; ``attitude_rad``: (roll, pitch,
     yaw); ``yaw_rate_rad_s``: the yaw rate (positive nose right); ``*_time``:
     ``time.monotonic()`` when each was received; ``attitude_history``: the last
-    ``ATTITUDE_HISTORY_S`` of ATTITUDE as (time_boot_ms / 1000, arrival, roll, pitch).
+    ``ATTITUDE_HISTORY_S`` of ATTITUDE as (time_boot_ms / 1000, arrival, roll, pitch, yaw).
     """
 
     velocity_ned_mps: tuple[float, float, float] | None = None
@@ -71,7 +71,7 @@ class VehicleState:
     yaw_rate_rad_s: float | None = None
     velocity_time: float = field(default=-math.inf)
     attitude_time: float = field(default=-math.inf)
-    attitude_history: deque[tuple[float, float, float, float]] = field(default_factory=deque)
+    attitude_history: deque[tuple[float, ...]] = field(default_factory=deque)
 
 
 def ned_to_image(v_ned: tuple[float, float, float], yaw_rad: float) -> tuple[float, float]:
@@ -152,7 +152,7 @@ class MavlinkLink:
                                      m.MAV_STATE_ACTIVE)
         self._last_heartbeat = now
         if self.attitude_hz is not None:
-            recent = sum(now - arrival <= 1.0 for _, arrival, _, _ in self.state.attitude_history)
+            recent = sum(now - s[1] <= 1.0 for s in self.state.attitude_history)
             if recent < self.attitude_hz / 2:
                 self._send_attitude_request()
 
@@ -187,16 +187,18 @@ class MavlinkLink:
                 self.state.attitude_rad = (msg.roll, msg.pitch, msg.yaw)
                 self.state.yaw_rate_rad_s = msg.yawspeed
                 self.state.attitude_time = now
-                self._remember_attitude(msg.time_boot_ms / 1000.0, now, msg.roll, msg.pitch)
+                self._remember_attitude(msg.time_boot_ms / 1000.0, now, msg.roll, msg.pitch,
+                                        msg.yaw)
         return self.state
 
-    def _remember_attitude(self, boot_s: float, now: float, roll: float, pitch: float) -> None:
+    def _remember_attitude(self, boot_s: float, now: float, roll: float, pitch: float,
+                           yaw: float) -> None:
         h = self.state.attitude_history
         if h and boot_s <= h[-1][0]:
             if boot_s > h[-1][0] - 1.0:
                 return  # a repeat, or UDP out of order: the history stays in time order
             h.clear()  # the autopilot restarted: its clock began again
-        h.append((boot_s, now, float(roll), float(pitch)))
+        h.append((boot_s, now, float(roll), float(pitch), float(yaw)))
         while h[-1][0] - h[0][0] > ATTITUDE_HISTORY_S:
             h.popleft()
 
@@ -217,11 +219,9 @@ class MavlinkLink:
                                         m.MAVLINK_MSG_ID_ATTITUDE, 1e6 / self.attitude_hz,
                                         0, 0, 0, 0, 0)
 
-    def attitude_at(self, times: Any) -> tuple[np.ndarray, np.ndarray] | None:
-        """Roll and pitch (rad) at each of ``times`` (``time.monotonic()`` seconds, when
-        each frame was taken), interpolated linearly in the ATTITUDE history; None unless
-        the history holds a sample at or before the first time, samples no more than
-        ``ATTITUDE_MAX_GAP_S`` apart through the times, and one within that of the last."""
+    def _track(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The history's times on our clock, its samples ``(n, 5)`` and ``times`` as an
+        array, where the history covers ``times`` (:meth:`attitude_at`); else None."""
         self.poll()
         h = self.state.attitude_history
         t = np.asarray(times, dtype=np.float64)
@@ -236,17 +236,41 @@ class MavlinkLink:
         i1 = int(np.searchsorted(local, last, side="left"))
         if np.any(np.diff(local[i0:i1 + 1]) > ATTITUDE_MAX_GAP_S):
             return None
+        return local, a, t
+
+    def attitude_at(self, times: Any) -> tuple[np.ndarray, np.ndarray] | None:
+        """Roll and pitch (rad) at each of ``times`` (``time.monotonic()`` seconds, when
+        each frame was taken), interpolated linearly in the ATTITUDE history; None unless
+        the history holds a sample at or before the first time, samples no more than
+        ``ATTITUDE_MAX_GAP_S`` apart through the times, and one within that of the last."""
+        track = self._track(times)
+        if track is None:
+            return None
+        local, a, t = track
         return np.interp(t, local, a[:, 2]), np.interp(t, local, a[:, 3])
 
-    def camera_velocity_mps(self, *, max_age_s: float = 1.0) -> tuple[float, float] | None:
-        """The vehicle's velocity over ground in image axes (:func:`ned_to_image`), or None
-        when velocity or heading is older than ``max_age_s`` or not heard."""
+    def heading_at(self, times: Any) -> np.ndarray | None:
+        """The vehicle's heading (ATTITUDE's yaw, rad, positive turning the nose right) at
+        each of ``times``, as :meth:`attitude_at` interpolates, unwrapped through +-pi."""
+        track = self._track(times)
+        if track is None:
+            return None
+        local, a, t = track
+        return np.interp(t, local, np.unwrap(a[:, 4]))
+
+    def camera_velocity_mps(self, *, max_age_s: float = 1.0,
+                            yaw_rad: float | None = None) -> tuple[float, float] | None:
+        """The vehicle's velocity over ground in image axes (:func:`ned_to_image`) at the
+        heading ``yaw_rad`` (the frames' own, where they were turned to one; default the
+        latest heard), or None when velocity or heading is older than ``max_age_s`` or not
+        heard."""
         s = self.poll()
         now = time.monotonic()
         if (s.velocity_ned_mps is None or s.attitude_rad is None
                 or now - s.velocity_time > max_age_s or now - s.attitude_time > max_age_s):
             return None
-        return ned_to_image(s.velocity_ned_mps, s.attitude_rad[2])
+        return ned_to_image(s.velocity_ned_mps, s.attitude_rad[2] if yaw_rad is None
+                            else float(yaw_rad))
 
     def close(self) -> None:
         self.conn.close()

@@ -39,7 +39,7 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_shake import shake_at, shaken_view  # noqa: E402
+from bench_shake import SHAKE_HZ, shake_at, shaken_view  # noqa: E402
 from bench_yaw import CAMERA_PX, SEAS, check_sea_args, report, run_rows, sea_parser  # noqa: E402
 from bench_yaw import summarise  # noqa: E402
 
@@ -47,27 +47,71 @@ from bench_yaw import summarise  # noqa: E402
 T0 = 1000.0
 
 
+def heading_at(seed: int, index: int, rate_dps: float, jitter_deg: float,
+               times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vehicle's heading, degrees, and its rate, degrees a second, at ``times_s`` (s
+    from the stream's start): a steady turn at ``rate_dps`` and ``jitter_deg`` back and
+    forth (``sin(2 pi f t + phi)``, ``f`` in ``SHAKE_HZ`` from the sequence's own stream)."""
+    rng = np.random.default_rng([seed, index, 9])
+    f, phi = rng.uniform(*SHAKE_HZ), rng.uniform(0.0, 2.0 * np.pi)
+    t = np.asarray(times_s, dtype=np.float64)
+    w = 2.0 * np.pi * f
+    return (rate_dps * t + jitter_deg * np.sin(w * t + phi),
+            rate_dps + jitter_deg * w * np.cos(w * t + phi))
+
+
+def turned_view(frames: np.ndarray, headings_deg: np.ndarray) -> np.ndarray:
+    """``frames`` ``(T, H, W)`` (the sea, north up) as a level camera at each frame's
+    heading sees them (``bench_yaw.yawing_view``'s geometry, one heading a frame; the
+    corners the turn brings in mirror the edge)."""
+    import scipy.ndimage as ndi
+
+    t, h, w = frames.shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+    right, forward = xx - (w - 1) / 2, (h - 1) / 2 - yy
+    out = np.empty_like(frames, dtype=np.float32)
+    for i in range(t):
+        d = math.radians(float(headings_deg[i]))
+        north = forward * math.cos(d) - right * math.sin(d)
+        east = forward * math.sin(d) + right * math.cos(d)
+        out[i] = ndi.map_coordinates(frames[i], [(h - 1) / 2 - north, (w - 1) / 2 + east],
+                                     order=1, mode="reflect")
+    return out
+
+
 def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: int,
-                 window: int, step: int, delay_ms: float, mode: str) -> list[dict[str, Any]]:
+                 window: int, step: int, delay_ms: float, mode: str, yaw_dps: float = 0.0,
+                 yaw_jitter_deg: float = 0.0) -> list[dict[str, Any]]:
     from wavealt.altimetry.dispersion import DispersionAltimeter
-    from wavealt.camera import NadirView, pinhole
+    from wavealt.camera import NadirView, pinhole, unturn_headings
     from wavealt.live.levelling import VehicleLevelling
+    from wavealt.live.mavlink import ned_to_image
 
     seed, index = task
     sea, truth = SEAS["realistic"](seed, index, frames)
     fps, focal = truth["fps"], truth["focal_px"]
-    kw: dict[str, Any] = {"fps": fps}
-    if mode == "exact":
-        kw["velocity_mps"] = truth["velocity_mps"]
+    vx, vy = truth["velocity_mps"]  # the camera over the water, the sea's axes (north up)
+    turning = yaw_dps != 0.0 or yaw_jitter_deg != 0.0
     level_est = DispersionAltimeter(dispersion="gravity-capillary", attitude="level")
     free_est = DispersionAltimeter(dispersion="gravity-capillary")
     calib = pinhole(CAMERA_PX, CAMERA_PX, focal)
     taken = T0 + np.arange(frames) / fps
     arrived = taken + delay_ms / 1e3
+
+    def heading(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return heading_at(seed, index, yaw_dps, yaw_jitter_deg, np.asarray(times) - T0)
+
+    def velocity(heading_deg: float) -> tuple[float, float] | None:
+        """Given as --velocity-from-vehicle gives it: in the axes of that heading."""
+        if mode != "exact":
+            return None
+        return ned_to_image((-vy, vx, 0.0), math.radians(heading_deg))
+
+    sea_seen = turned_view(sea, heading(taken)[0]) if turning else sea
     out = []
     for amp in amplitudes:
         deg = shake_at(seed, index, amp, taken - T0)
-        clip = np.clip(shaken_view(sea, deg, focal, CAMERA_PX), 0.0, 1.0)
+        clip = np.clip(shaken_view(sea_seen, deg, focal, CAMERA_PX), 0.0, 1.0)
 
         def attitude_at(times: np.ndarray, amp: float = amp) -> tuple[np.ndarray, np.ndarray]:
             d = shake_at(seed, index, amp, np.asarray(times) - T0)
@@ -76,22 +120,46 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
         stream = VehicleLevelling(lambda w, h: calib, altimeter=level_est)
         for start in range(0, frames - window + 1, step):
             part = slice(start, start + window)
-            cases: dict[str, tuple[np.ndarray, float, Any]] = {}
-            got = stream.level(clip[part], arrived[part], attitude_at)
+            last = arrived[start + window - 1:start + window]
+            mid_taken = 0.5 * (taken[start] + taken[start + window - 1])
+            # (frames, focal, estimator, velocity, yaw rate given: None, a still heading,
+            # leaves the turn to the altimeter as the runs before --yaw-dps did)
+            cases: dict[str, tuple[np.ndarray, float, Any, Any, float | None]] = {}
+            got = stream.level(clip[part], arrived[part], attitude_at,
+                               heading_at=(lambda t: np.radians(heading(t)[0])) if turning
+                               else None)
             each = got[2]["attitude_sd_deg"] != ""  # frame by frame: the delay known
-            cases["live-known" if each else "live-measuring"] = (got[0], got[1], level_est)
+            # as the command line: turned back frame by frame, or at the latest yaw rate;
+            # the velocity at the heading of the frames' middle moment as the link reads it
+            rate = 0.0 if "yaw_rate_dps" in got[2] else float(heading(last)[1][0])
+            middle = 0.5 * (arrived[start] + arrived[start + window - 1]) - (
+                stream.delay_s or 0.0)
+            cases["live-known" if each else "live-measuring"] = (
+                got[0], got[1], level_est, velocity(float(heading([middle])[0][0])),
+                rate if turning else None)
             view = NadirView(calib, CAMERA_PX, CAMERA_PX, roll_deg=deg[part, 0],
                              pitch_deg=deg[part, 1])
-            cases["told"] = (view(clip[part]), view.focal_px, level_est)
-            # the latest ATTITUDE heard when the window's last frame arrives
-            r, p = (round(math.degrees(float(x[0])) * 2) / 2
-                    for x in attitude_at(arrived[start + window - 1:start + window]))
+            told = view(clip[part])
+            if turning:
+                hd = heading(taken[part])[0]
+                told = unturn_headings(told, hd - float(heading([mid_taken])[0][0]))
+            cases["told"] = (told, view.focal_px, level_est,
+                             velocity(float(heading([mid_taken])[0][0])),
+                             0.0 if turning else None)
+            # before: the latest ATTITUDE heard when the window's last frame arrives, its
+            # yawspeed, and the velocity at its heading
+            r, p = (round(math.degrees(float(x[0])) * 2) / 2 for x in attitude_at(last))
             one = NadirView(calib, CAMERA_PX, CAMERA_PX, roll_deg=r, pitch_deg=p)
-            cases["latest"] = (one(clip[part]), one.focal_px, level_est)
-            cases["untold"] = (clip[part], focal, free_est)
-            for case, (frames_in, f, est) in cases.items():
+            cases["latest"] = (one(clip[part]), one.focal_px, level_est,
+                               velocity(float(heading(last)[0][0])),
+                               float(heading(last)[1][0]) if turning else None)
+            cases["untold"] = (clip[part], focal, free_est,
+                               velocity(float(heading([mid_taken])[0][0])), None)
+            for case, (frames_in, f, est, vel, yaw) in cases.items():
                 t0 = time.perf_counter()
-                res = est.estimate(frames_in, focal_px=f, **kw)
+                res = est.estimate(frames_in, fps=fps, focal_px=f, velocity_mps=vel,
+                                   yaw_rate_dps=None if yaw is None
+                                   else float(np.clip(yaw, -180.0, 180.0)))
                 row = {"seed": seed, "index": index, "start": start, "amplitude_deg": amp,
                        "case": case, "altitude_m": truth["altitude_m"],
                        "estimate_m": res.altitude_m, "std_m": res.altitude_std_m,
@@ -111,6 +179,10 @@ def parse_args(argv: list[str] | None = None):
                     help="roll and pitch amplitudes, degrees, comma-separated")
     ap.add_argument("--delay-ms", type=float, default=80.0,
                     help="how long after it was taken each frame arrives, ms")
+    ap.add_argument("--yaw-dps", type=float, default=0.0,
+                    help="the vehicle turning at this rate, deg/s (positive: nose right)")
+    ap.add_argument("--yaw-jitter-deg", type=float, default=0.0,
+                    help="and its heading back and forth by this much, degrees (0.7-2 Hz)")
     ap.add_argument("--window", type=int, default=30)
     ap.add_argument("--step", type=int, default=5)
     a = ap.parse_args(argv)
@@ -121,6 +193,10 @@ def parse_args(argv: list[str] | None = None):
         ap.error(f"--amplitudes must be in (0, 5] degrees; got {a.amplitudes}")
     if not (math.isfinite(a.delay_ms) and 0 <= a.delay_ms <= 400):
         ap.error(f"--delay-ms must be in [0, 400] ms (the meter's reach); got {a.delay_ms}")
+    if not (math.isfinite(a.yaw_dps) and abs(a.yaw_dps) <= 60
+            and math.isfinite(a.yaw_jitter_deg) and 0 <= a.yaw_jitter_deg <= 10):
+        ap.error(f"--yaw-dps must be within +-60 and --yaw-jitter-deg in [0, 10]; got "
+                 f"{a.yaw_dps}, {a.yaw_jitter_deg}")
     if not (15 <= a.window <= a.frames and a.step >= 1):
         ap.error(f"--window must be in [15, --frames] and --step >= 1; got {a.window}, "
                  f"{a.step}")
@@ -130,12 +206,14 @@ def parse_args(argv: list[str] | None = None):
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     job = partial(run_sequence, amplitudes=a.amplitudes, frames=a.frames, window=a.window,
-                  step=a.step, delay_ms=a.delay_ms, mode=a.mode)
+                  step=a.step, delay_ms=a.delay_ms, mode=a.mode, yaw_dps=a.yaw_dps,
+                  yaw_jitter_deg=a.yaw_jitter_deg)
     rows, seconds = run_rows(a, job)
     known = [r for r in rows if r["case"] == "live-known"]
     summary = {"benchmark": "live_shake", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences,
                "amplitudes_deg": list(a.amplitudes), "delay_ms": a.delay_ms,
+               "yaw_dps": a.yaw_dps, "yaw_jitter_deg": a.yaw_jitter_deg,
                "frames": a.frames, "window": a.window, "step": a.step, "mode": a.mode,
                "camera_px": CAMERA_PX,
                "by_amplitude": summarise(rows, "amplitude_deg", ("steadied",)),

@@ -66,7 +66,10 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
         deg = shake_at(seed, index, amp, taken - T0)
         clip = np.clip(shaken_view(sea, deg, focal, CAMERA_PX), 0.0, 1.0)
         t0 = time.perf_counter()
-        shake = image_shake(clip, est, SHAKE_MIN_RATIO if min_ratio is None else min_ratio)
+        # as the live levelling measures it: the shift and a rotation the tiles share
+        motion = image_shake(clip, est, SHAKE_MIN_RATIO if min_ratio is None else min_ratio,
+                             rotation=True)
+        shake = None if motion is None else motion[0]
         ms = 1e3 * (time.perf_counter() - t0)
         for delay in delays_ms:
             right, wrong = LatencyMeter(), LatencyMeter()

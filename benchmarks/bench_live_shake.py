@@ -84,7 +84,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
                  yaw_jitter_deg: float = 0.0) -> list[dict[str, Any]]:
     from wavealt.altimetry.dispersion import DispersionAltimeter
     from wavealt.camera import NadirView, pinhole, unturn_headings
-    from wavealt.live.levelling import VehicleLevelling
+    from wavealt.live.levelling import VehicleLevelling, judge
     from wavealt.live.mavlink import ned_to_image
 
     seed, index = task
@@ -157,14 +157,17 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
                                velocity(float(heading([mid_taken])[0][0])), None)
             for case, (frames_in, f, est, vel, yaw) in cases.items():
                 t0 = time.perf_counter()
-                res = est.estimate(frames_in, fps=fps, focal_px=f, velocity_mps=vel,
-                                   yaw_rate_dps=None if yaw is None
-                                   else float(np.clip(yaw, -180.0, 180.0)))
+                result = est.estimate(frames_in, fps=fps, focal_px=f, velocity_mps=vel,
+                                      yaw_rate_dps=None if yaw is None
+                                      else float(np.clip(yaw, -180.0, 180.0)))
+                res = result.to_dict()
+                if case.startswith("live"):  # as the command line judges it
+                    judge(res, got[2], est.altitude_range_m)
                 row = {"seed": seed, "index": index, "start": start, "amplitude_deg": amp,
                        "case": case, "altitude_m": truth["altitude_m"],
-                       "estimate_m": res.altitude_m, "std_m": res.altitude_std_m,
-                       "trusted": bool(res.trusted), "reason": res.reason,
-                       "steadied": "+steadied" in res.signal,
+                       "estimate_m": res["altitude_m"], "std_m": res["altitude_std_m"],
+                       "trusted": bool(res["trusted"]), "reason": res["reason"],
+                       "steadied": "+steadied" in result.signal,
                        "delay_ms": None if stream.delay_s is None else 1e3 * stream.delay_s,
                        "ms": 1e3 * (time.perf_counter() - t0)}
                 out.append(row)

@@ -280,7 +280,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     from wavealt.camera import NadirView, read_calibration
     from wavealt.io import check_output_folder
     from wavealt.live import LIVE_FILE, run_live
-    from wavealt.live.levelling import VehicleLevelling
+    from wavealt.live.levelling import VehicleLevelling, judge
 
     if attitude is not None:
         msg = "--attitude is a log for recorded input; live, use --tilt-from-vehicle"
@@ -362,7 +362,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                                   velocity_sigma_mps=sd if vel is not None else 0.0,
                                   readout_s=readout_s,
                                   yaw_rate_dps=yaw).to_dict()
-        res.update(info)
+        judge(res, info, est[known].altitude_range_m)
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "

@@ -91,11 +91,17 @@ class LatencyMeter:
 
     def add(self, shake_px: np.ndarray, arrivals: np.ndarray,
             attitude_at: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None],
-            focal_px: float) -> float | None:
+            focal_px: float, rotation_rad: np.ndarray | None = None,
+            heading_at: Callable[[np.ndarray], np.ndarray | None] | None = None,
+            radius_px: float = 0.0) -> float | None:
         """Add one window: its measured image shake ``(T, 2)`` px, when its frames arrived
         (s, the attitude's clock), ``attitude_at(times)`` the (roll, pitch) rad at any
-        times (None where it cannot tell), and the focal length, px.  Returns the window's
-        own best delay, s, where it measures one (else None, and nothing is added)."""
+        times (None where it cannot tell), and the focal length, px.  With the image's
+        measured rotation ``rotation_rad`` ``(T,)`` and ``heading_at(times)`` (rad, the nose
+        right), the rotation joins the match: a heading ``psi`` turns the image's content by
+        ``-psi``, weighed as the shift it gives at ``radius_px`` from the centre (the corner
+        tiles').  Returns the window's own best delay, s, where it measures one (else None,
+        and nothing is added)."""
         shake = np.asarray(shake_px, dtype=np.float64)
         arrivals = np.asarray(arrivals, dtype=np.float64)
         if shake.shape != (arrivals.size, 2) or not np.all(np.isfinite(shake)):
@@ -107,6 +113,16 @@ class LatencyMeter:
         pred = detrend(attitude_shift(att[0].reshape(times.shape), att[1].reshape(times.shape),
                                       focal_px))
         measured = detrend(shake)
+        heads = None
+        if rotation_rad is not None and heading_at is not None and radius_px > 0:
+            heads = heading_at(times.ravel())
+        if heads is not None and np.all(np.isfinite(rotation_rad)):
+            turn = -radius_px * np.asarray(heads, dtype=np.float64).reshape(times.shape)
+            seen = radius_px * np.asarray(rotation_rad, dtype=np.float64)
+            # the rotation as a third column, detrended as the shifts are
+            pred = np.concatenate([pred, detrend(np.stack([turn, turn], -1))[..., :1]], -1)
+            measured = np.concatenate([measured, detrend(np.stack([seen, seen], -1))[:, :1]],
+                                      -1)
         mm = float((measured**2).sum())
         dot = (pred * measured).sum(axis=(1, 2))
         pp = np.maximum((pred**2).sum(axis=(1, 2)), 1e-30)

@@ -20,6 +20,15 @@ from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, SHAKE_MIN_RATIO,
 
 #: Views kept per stream (each a half-degree box of attitudes, or one attitude).
 MAX_VIEWS = 64
+#: While the camera's delay is not known, a window's frames are turned back at a steady
+#: yaw rate; where the vehicle's heading over the window departs from a steady turn by more
+#: than this, degrees rms, the window is not trusted (a quarter of a degree turns the corner
+#: tiles' content by about 0.3 px against the 2 px of half a degree of roll or pitch).
+MAX_YAW_WAVER_DEG = 0.25
+#: The altimeter's corner tiles' centres lie about this far from the frame's centre, as a
+#: share of its shorter side (tiles of 0.4 of it: 0.3 along each axis): the radius at which
+#: a rotation's shift weighs as much as the shake's in the delay's match.
+CORNER_RADIUS = 0.42
 
 AttitudeAt = Callable[[np.ndarray], "tuple[np.ndarray, np.ndarray] | None"]
 
@@ -71,8 +80,8 @@ class VehicleLevelling:
                                          pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
         return self._views[key]
 
-    def measure(self, frames: np.ndarray, arrivals: np.ndarray,
-                attitude_at: AttitudeAt) -> None:
+    def measure(self, frames: np.ndarray, arrivals: np.ndarray, attitude_at: AttitudeAt,
+                heading_at: Callable[[np.ndarray], np.ndarray | None] | None = None) -> None:
         """Add a window to the delay's measurement: every window until ``SETTLE_WINDOWS``
         have measured it (at most the stream's first ``4 SETTLE_WINDOWS``: a camera that
         does not shake enough is not measured at every window's cost), then every
@@ -85,10 +94,12 @@ class VehicleLevelling:
         from wavealt.altimetry.dispersion import image_shake
 
         h, w = frames.shape[1:3]
-        shake = image_shake(frames, self.altimeter, SHAKE_MIN_RATIO)
-        if shake is not None:
+        # the shift and the rotation (a wavering heading) the tiles share
+        motion = image_shake(frames, self.altimeter, SHAKE_MIN_RATIO, rotation=True)
+        if motion is not None:
             focal = float(self.calibration(w, h).camera_matrix[0, 0])
-            self.meter.add(shake, arrivals, attitude_at, focal)
+            self.meter.add(motion[0], arrivals, attitude_at, focal, motion[1], heading_at,
+                           CORNER_RADIUS * min(h, w))
 
     def level(self, frames: np.ndarray, arrivals: np.ndarray, attitude_at: AttitudeAt,
               latest: tuple[float, float] | None = None,
@@ -105,7 +116,7 @@ class VehicleLevelling:
         right, or None), each frame is also turned back to the heading of the window's
         middle moment (:func:`wavealt.camera.unturn_headings`), and ``yaw_rate_dps`` in what
         was done is the window's mean turn rate: the frames no longer turn."""
-        self.measure(frames, arrivals, attitude_at)
+        self.measure(frames, arrivals, attitude_at, heading_at)
         self.windows += 1
         h, w = frames.shape[1:3]
         delay = self.delay_s
@@ -132,6 +143,15 @@ class VehicleLevelling:
                 span = float(arrivals[-1] - arrivals[0])
                 info["yaw_rate_dps"] = round(float(turn[-1] - turn[0]) / span, 3) if span else 0.0
             return out, view.focal_px, info
+        heads = heading_at(arrivals) if heading_at is not None else None
+        if heads is not None:  # the delay not yet known: is the turn steady?
+            k = np.arange(len(heads)) - (len(heads) - 1) / 2.0
+            dev = heads - heads.mean() - k * float((k * heads).sum() / max((k**2).sum(), 1e-30))
+            waver = math.degrees(float(np.sqrt(np.mean(dev**2))))
+            if waver > MAX_YAW_WAVER_DEG:
+                info["distrust"] = (f"the vehicle's heading wavered by {waver:.2f} deg about a "
+                                    f"steady turn over the window, and the camera's delay "
+                                    f"behind ATTITUDE is not yet known to turn each frame back")
         now = attitude_at(arrivals)
         if now is not None:  # the delay not yet known: the window at its mean attitude
             roll, pitch = (math.degrees(float(np.mean(a))) for a in now)
@@ -149,4 +169,20 @@ class VehicleLevelling:
                                np.full(len(frames), pitch)), view.focal_px, info
 
 
-__all__ = ["MAX_VIEWS", "VehicleLevelling"]
+def judge(result: dict[str, Any], info: dict[str, Any],
+          altitude_range_m: tuple[float, float]) -> dict[str, Any]:
+    """A result dict (``DispersionResult.to_dict()``) with what the levelling did
+    (:meth:`VehicleLevelling.level`'s ``info``) recorded in it, and NOT TRUSTED, its 3-sigma
+    interval spanning ``altitude_range_m`` as the altimeter's untrusted ones do, where the
+    levelling could not undo the vehicle's motion (``info["distrust"]``)."""
+    info = dict(info)
+    reason = info.pop("distrust", None)
+    result.update(info)
+    if reason is not None and result.get("trusted"):
+        lo, hi = altitude_range_m
+        result["trusted"], result["reason"] = False, reason
+        result["altitude_std_m"] = max(float(result["altitude_std_m"]), (hi - lo) / 3.0)
+    return result
+
+
+__all__ = ["CORNER_RADIUS", "MAX_VIEWS", "MAX_YAW_WAVER_DEG", "VehicleLevelling", "judge"]

@@ -160,3 +160,51 @@ def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
         out -= out.mean(axis=1, keepdims=True)
         total = shake if total is None else total + shake
     return out, total
+
+
+def _rigid(shakes: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The tiles' shifts ``shakes`` ``(tiles, T, 2)`` as one rigid motion of the image about
+    its centre: a shift ``(T, 2)`` they share and a small rotation ``(T,)`` rad (tile ``i``
+    at ``centres[i]`` px from the centre moves by ``theta (-c_y, c_x)``), least squares per
+    frame; and how far the shift stands above what is left (its mean square over that of
+    its noise, as :func:`common_shake`'s ratio)."""
+    n = shakes.shape[0]
+    shift = shakes.mean(axis=0)
+    perp = np.stack([-centres[:, 1], centres[:, 0]], axis=-1)  # (tiles, 2)
+    perp = perp - perp.mean(axis=0)
+    rest = shakes - shift
+    theta = np.einsum("itk,ik->t", rest, perp) / max(float((perp**2).sum()), 1e-30)
+    rest = rest - theta[None, :, None] * perp[:, None, :]
+    # the residual keeps 2 (n - 1) - 1 of the tiles' 2 n numbers a frame (the shift and the
+    # rotation taken out): the noise of the shift's mean, as common_shake's, per axis
+    noise = float((rest**2).sum() / max((2 * (n - 1) - 1) / 2.0, 0.5)) / n
+    return shift, theta, float((shift**2).sum()) / max(noise, 1e-30)
+
+
+def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: np.ndarray,
+                  min_ratio: float = JITTER_MIN_RATIO
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """:func:`remove_shake` of a camera that also turns back and forth about its axis (a
+    vehicle's heading wavering): each tile's shift is the shift the tiles share plus a
+    rotation about the image centre (:func:`_rigid`; ``centres`` ``(tiles, 2)`` px), so the
+    tiles agree on the shared shift once the rotation is taken out too.  Returns the series
+    with both removed, the shift ``(T, 2)`` px and the rotation ``(T,)`` rad removed (each
+    less its mean motion), or the series and None, None where the tiles share no shift
+    (``min_ratio``)."""
+    centres = np.asarray(centres, dtype=np.float64)
+    total = rot = None
+    out = series
+    for _ in range(JITTER_PASSES):
+        shift, theta, ratio = _rigid(_shakes(out, kx, ky), centres)
+        if (not (np.all(np.isfinite(shift)) and np.all(np.isfinite(theta)))
+                or (total is None and not ratio >= min_ratio)):
+            break
+        moved = shift[None] + theta[None, :, None] * np.stack(
+            [-centres[:, 1], centres[:, 0]], axis=-1)[:, None, :]  # (tiles, T, 2)
+        phase = (kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:])
+        out = out * _phasor(phase)
+        out -= out.mean(axis=1, keepdims=True)
+        total = shift if total is None else total + shift
+        rot = theta if rot is None else rot + theta
+    return out, total, rot
+

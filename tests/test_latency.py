@@ -5,6 +5,7 @@ the prediction explains it, and an attitude that is not the camera's measures no
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -180,3 +181,67 @@ def test_a_stream_is_levelled_at_its_mean_attitude_until_the_delay_is_known(sea)
     still = VehicleLevelling(calib)
     flat, f0, info = still.level(clip, taken, lambda t: (np.zeros(len(t)), np.zeros(len(t))))
     assert flat is clip and f0 == focal and (info["roll_deg"], info["pitch_deg"]) == (0.0, 0.0)
+
+
+def _turned(frames: np.ndarray, headings_deg: np.ndarray) -> np.ndarray:
+    """A level camera's view of ``frames`` (north up) at each frame's heading
+    (``benchmarks/bench_live_shake.py``'s geometry)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_live_shake import turned_view
+
+    return turned_view(frames, headings_deg)
+
+
+def test_a_wavering_heading_is_read_as_a_rotation_and_times_the_frames_too(sea) -> None:
+    """A camera shaking by half a degree while its heading wavers by two degrees: the
+    tiles read the shift the roll and pitch give and the rotation the heading gives (the
+    content turns against the nose, to 20 %), and the meter, matching both, finds a
+    90-ms delay within 10 ms over three windows."""
+    frames, focal, fps = sea
+    alt = DispersionAltimeter(dispersion="gravity-capillary", attitude="level")
+    taken = 100.0 + np.arange(30) / fps
+    meter = LatencyMeter()
+    for n in range(MIN_WINDOWS):
+        rng = np.random.default_rng(20 + n)
+        at = _shake(rng, 0.5)
+        f, phi = rng.uniform(0.7, 2.0), rng.uniform(0, 2 * np.pi)
+
+        def heading(t: np.ndarray, f: float = f, phi: float = phi) -> np.ndarray:
+            return np.radians(2.0) * np.sin(2 * np.pi * f * np.asarray(t) + phi)
+
+        clip = _shaken(_turned(frames, np.degrees(heading(taken))), focal, *at(taken))
+        motion = image_shake(clip, alt, 4.0, rotation=True)
+        assert motion is not None
+        shift, turn = motion
+        want = detrend(np.stack([-heading(taken)] * 2, -1))[:, 0]
+        assert np.corrcoef(turn, want)[0, 1] > 0.95
+        assert np.std(turn) == pytest.approx(np.std(want), rel=0.2)
+        meter.add(shift, taken + 0.09, at, focal, turn, heading, 0.42 * SIDE)
+    assert meter.latency_s == pytest.approx(0.09, abs=0.0101)
+
+
+def test_a_wavering_heading_is_not_trusted_until_the_delay_is_known(sea) -> None:
+    """While the delay is unknown, a window whose heading wavers about a steady turn is
+    judged NOT TRUSTED (its interval then spans the range); a steady turn is not."""
+    from wavealt.camera import pinhole
+    from wavealt.live.levelling import VehicleLevelling, judge
+
+    frames, focal, fps = sea
+    taken = 100.0 + np.arange(30) / fps
+    flat = (lambda t: (np.zeros(len(t)), np.zeros(len(t))))
+    # a level camera over a still sea: nothing to measure the delay by, so it stays unknown
+    stream = VehicleLevelling(lambda w, h: pinhole(w, h, focal))
+    _, _, steady = stream.level(frames[:, :SIDE, :SIDE], taken, flat,
+                                heading_at=lambda t: np.radians(15.0) * (t - 100.0))
+    assert "distrust" not in steady
+    _, _, wavering = stream.level(frames[:, :SIDE, :SIDE], taken, flat,
+                                  heading_at=lambda t: np.radians(1.0) * np.sin(9.0 * t))
+    assert stream.delay_s is None
+    assert float(re.search(r"wavered by ([0-9.]+) deg", wavering["distrust"]).group(1)) > 0.5
+    res = judge({"altitude_m": 5.0, "altitude_std_m": 0.05, "trusted": True, "reason": None},
+                wavering, (1.0, 20.0))
+    assert res["trusted"] is False and "wavered" in res["reason"]
+    assert res["altitude_std_m"] >= 19.0 / 3.0 and "distrust" not in res

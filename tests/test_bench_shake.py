@@ -71,30 +71,29 @@ def test_the_shake_repeats_per_sequence_and_scales_with_the_amplitude() -> None:
     assert np.allclose(late[1:], a[:-1])
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
-    (("--amplitudes", "9"), "--amplitudes must be in (0, 5]"),
-    (("--seeds", "a"), "--seeds and --amplitudes must be numbers"),
-    (("--mode", "prior"), "invalid choice: 'prior'"),
-    (("--lags-ms", "x"), "--lags-ms must be comma-separated numbers"),
-    (("--lags-ms", "0"), "--lags-ms must be in (0, 1000]"),
-    (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
-])
-def test_bad_options_are_refused_in_one_line(args, message) -> None:
-    res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
-                         timeout=120)
-    assert res.returncode == 2
-    assert message in res.stderr.strip().splitlines()[-1]
-
-
-@pytest.mark.parametrize(("args", "message"), [
-    (("--delays-ms", "500"), "--delays-ms must be in [0, 400]"),
-    (("--delays-ms", "x"), "--delays-ms must be comma-separated numbers"),
-    (("--frames", "10"), "--frames must be at least 15"),
-    (("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
-])
-def test_the_latency_benchmark_refuses_bad_options_in_one_line(args, message) -> None:
-    res = subprocess.run([sys.executable, str(LATENCY), *args], capture_output=True, text=True,
+@pytest.mark.parametrize(("script", "args", "message"), [
+    (BENCH, ("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
+    (BENCH, ("--amplitudes", "9"), "--amplitudes must be in (0, 5]"),
+    (BENCH, ("--seeds", "a"), "--seeds and --amplitudes must be numbers"),
+    (BENCH, ("--mode", "prior"), "invalid choice: 'prior'"),
+    (BENCH, ("--lags-ms", "x"), "--lags-ms must be comma-separated numbers"),
+    (BENCH, ("--lags-ms", "0"), "--lags-ms must be in (0, 1000]"),
+    (BENCH, ("--sea", "second", "--frames", "40"),
+     "--frames must be at most 30 with --sea second"),
+    (LATENCY, ("--delays-ms", "500"), "--delays-ms must be in [0, 400]"),
+    (LATENCY, ("--delays-ms", "x"), "--delays-ms must be comma-separated numbers"),
+    (LATENCY, ("--frames", "10"), "--frames must be at least 15"),
+    (LATENCY, ("--amplitudes", "0"), "--amplitudes must be in (0, 5]"),
+    (LATENCY, ("--min-ratio", "0"), "--min-ratio must be a positive number"),
+    (LIVE, ("--sea", "second"), "only the realistic renderer's sea"),
+    (LIVE, ("--delay-ms", "-5"), "--delay-ms must be in [0, 400]"),
+    (LIVE, ("--window", "10"), "--window must be in [15, --frames]"),
+    (LIVE, ("--frames", "20", "--window", "30"), "--window must be in [15, --frames]"),
+    (LIVE, ("--yaw-jitter-deg", "20"), "--yaw-jitter-deg in [0, 10]"),
+], ids=lambda v: v.stem if isinstance(v, Path) else None)
+def test_bad_options_are_refused_in_one_line(script, args, message) -> None:
+    """bench_shake.py, bench_latency.py and bench_live_shake.py."""
+    res = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True,
                          timeout=120)
     assert res.returncode == 2
     assert message in res.stderr.strip().splitlines()[-1]
@@ -114,16 +113,3 @@ def test_the_latency_benchmark_finds_the_delay_it_was_given(tmp_path) -> None:
     assert cell["measured_share"] == 1.0 and cell["error_ms_max"] <= 20.0
     assert cell["wrong_attitude_measured_share"] == 0.0
     assert len(json.loads(out.read_text())["rows"]) == 2
-
-
-@pytest.mark.parametrize(("args", "message"), [
-    (("--sea", "second"), "only the realistic renderer's sea"),
-    (("--delay-ms", "-5"), "--delay-ms must be in [0, 400]"),
-    (("--window", "10"), "--window must be in [15, --frames]"),
-    (("--frames", "20", "--window", "30"), "--window must be in [15, --frames]"),
-])
-def test_the_live_shake_benchmark_refuses_bad_options_in_one_line(args, message) -> None:
-    res = subprocess.run([sys.executable, str(LIVE), *args], capture_output=True, text=True,
-                         timeout=120)
-    assert res.returncode == 2
-    assert message in res.stderr.strip().splitlines()[-1]

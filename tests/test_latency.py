@@ -178,6 +178,9 @@ def test_a_stream_is_levelled_at_its_mean_attitude_until_the_delay_is_known(sea)
     assert seen[0] == ("", "") and seen[1] == ("", "")
     assert seen[-1][0] == pytest.approx(80.0, abs=5.0) and seen[-1][1] > 0.3
     assert measured.level(clip, taken, lambda t: None) is None
+    # a bank beyond what a level view is made for: the frames go as they came
+    steep = (lambda t: (np.full(len(t), math.radians(50.0)), np.zeros(len(t))))
+    assert given.level(clip, taken + 0.05, steep) is None
     still = VehicleLevelling(calib)
     flat, f0, info = still.level(clip, taken, lambda t: (np.zeros(len(t)), np.zeros(len(t))))
     assert flat is clip and f0 == focal and (info["roll_deg"], info["pitch_deg"]) == (0.0, 0.0)

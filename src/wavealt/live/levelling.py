@@ -65,7 +65,7 @@ class VehicleLevelling:
     def _view(self, w: int, h: int, rolls: np.ndarray, pitches: np.ndarray) -> Any:
         """A view for frames at ``rolls, pitches`` (degrees): made for the box of attitudes
         about their mean, both to the next half degree, so that a stream's windows share it
-        (and the maps of the frames they share)."""
+        (and the maps of the frames they share); None where no level view can be made."""
         from wavealt.camera import NadirView
 
         mr, mp = round(float(rolls.mean()) * 2) / 2, round(float(pitches.mean()) * 2) / 2
@@ -75,9 +75,14 @@ class VehicleLevelling:
         if key not in self._views:
             if len(self._views) >= MAX_VIEWS:
                 self._views.clear()
-            self._views[key] = NadirView(self.calibration(w, h), w, h,
-                                         roll_deg=[mr - dr, mr + dr, mr - dr, mr + dr],
-                                         pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
+            try:
+                self._views[key] = NadirView(self.calibration(w, h), w, h,
+                                             roll_deg=[mr - dr, mr + dr, mr - dr, mr + dr],
+                                             pitch_deg=[mp - dp, mp - dp, mp + dp, mp + dp])
+            except ValueError:
+                # beyond the tilt a level view is made for (MAX_TILT_DEG), or none left of
+                # the frame: the frames go as they came, their tilt the altimeter's to measure
+                self._views[key] = None
         return self._views[key]
 
     def measure(self, frames: np.ndarray, arrivals: np.ndarray, attitude_at: AttitudeAt,
@@ -110,7 +115,8 @@ class VehicleLevelling:
         where it cannot tell; ``latest``: the latest heard, rad): the frames, their focal
         length, px, and what was done (``roll_deg`` / ``pitch_deg`` the window's mean,
         ``attitude_sd_deg`` the frames' spread about it or "" for one attitude,
-        ``camera_latency_ms`` the delay used or "").  None where no attitude is known.
+        ``camera_latency_ms`` the delay used or "").  None where no attitude is known, or
+        where it is beyond what a level view is made for (the frames then go as they came).
 
         Frame by frame, with ``heading_at(times)`` (the heading, rad, positive the nose
         right, or None), each frame is also turned back to the heading of the window's
@@ -127,6 +133,8 @@ class VehicleLevelling:
         if each is not None:  # each frame at the attitude it was taken with
             rolls, pitches = np.degrees(each[0]), np.degrees(each[1])
             view = self._view(w, h, rolls, pitches)
+            if view is None:
+                return None
             info["attitude_sd_deg"] = round(float(np.sqrt(np.mean(
                 (rolls - rolls.mean()) ** 2 + (pitches - pitches.mean()) ** 2))), 3)
             info["roll_deg"] = round(float(rolls.mean()), 2)
@@ -165,6 +173,8 @@ class VehicleLevelling:
         if (roll, pitch) == (0.0, 0.0) and not np.any(calib.dist_coeffs):
             return frames, float(calib.camera_matrix[0, 0]), info  # nothing to undo
         view = self._view(w, h, np.array([roll]), np.array([pitch]))
+        if view is None:
+            return None
         return view.level_each(frames, np.full(len(frames), roll),
                                np.full(len(frames), pitch)), view.focal_px, info
 

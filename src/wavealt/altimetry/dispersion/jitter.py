@@ -133,7 +133,11 @@ def common_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
     px (their mean, :func:`tile_shake`), and how far it stands above the tiles' own noise:
     its mean square over that of the mean's noise (the tiles' scatter about the mean over
     their number; about 1 where no shake is shared)."""
-    shakes = _shakes(series, kx, ky)
+    return _common(_shakes(series, kx, ky))
+
+
+def _common(shakes: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`common_shake` of the tiles' shifts ``shakes`` ``(tiles, T, 2)``."""
     n = shakes.shape[0]
     mean = shakes.mean(axis=0)
     if n < 2:
@@ -149,10 +153,17 @@ def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
     series themselves and None where the tiles share none (``min_ratio``).
     ``JITTER_PASSES`` passes, each on what the last left: a mode's steady step is read on
     the shaken series, and the first pass reads about nine tenths of the shake."""
+    return _remove_shake(series, kx, ky, min_ratio)
+
+
+def _remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, min_ratio: float,
+                  first: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`remove_shake`; ``first``: the first pass's tile shifts, already taken."""
     total = None
     out = series
-    for _ in range(JITTER_PASSES):
-        shake, ratio = common_shake(out, kx, ky)
+    for k in range(JITTER_PASSES):
+        shake, ratio = _common(first if k == 0 and first is not None
+                               else _shakes(out, kx, ky))
         if not np.all(np.isfinite(shake)) or (total is None and not ratio >= min_ratio):
             break  # no shake the tiles agree on (later passes refine the one found)
         phase = kx[None, :] * shake[:, :1] + ky[None, :] * shake[:, 1:]  # (T, modes)
@@ -162,12 +173,14 @@ def remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
     return out, total
 
 
-def _rigid(shakes: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _rigid(shakes: np.ndarray, centres: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The tiles' shifts ``shakes`` ``(tiles, T, 2)`` as one rigid motion of the image about
     its centre: a shift ``(T, 2)`` they share and a small rotation ``(T,)`` rad (tile ``i``
     at ``centres[i]`` px from the centre moves by ``theta (-c_y, c_x)``), least squares per
-    frame; and how far the shift stands above what is left (its mean square over that of
-    its noise, as :func:`common_shake`'s ratio)."""
+    frame; how far the shift stands above what is left (its mean square over that of its
+    noise, as :func:`common_shake`'s ratio), and how far the rotation does (the same, about
+    1 where the tiles turn no more than their noise)."""
     n = shakes.shape[0]
     shift = shakes.mean(axis=0)
     perp = np.stack([-centres[:, 1], centres[:, 0]], axis=-1)  # (tiles, 2)
@@ -177,8 +190,11 @@ def _rigid(shakes: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndar
     rest = rest - theta[None, :, None] * perp[:, None, :]
     # the residual keeps 2 (n - 1) - 1 of the tiles' 2 n numbers a frame (the shift and the
     # rotation taken out): the noise of the shift's mean, as common_shake's, per axis
-    noise = float((rest**2).sum() / max((2 * (n - 1) - 1) / 2.0, 0.5)) / n
-    return shift, theta, float((shift**2).sum()) / max(noise, 1e-30)
+    var = float((rest**2).sum()) / max((2 * (n - 1) - 1) * shakes.shape[1], 1)
+    noise = var * 2.0 * shakes.shape[1] / n
+    # the rotation's own: its least-squares variance is var / sum |perp|^2 a frame
+    turn = float((theta**2).sum()) * float((perp**2).sum()) / max(var * shakes.shape[1], 1e-30)
+    return shift, theta, float((shift**2).sum()) / max(noise, 1e-30), turn
 
 
 def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: np.ndarray,
@@ -187,15 +203,21 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
     """:func:`remove_shake` of a camera that also turns back and forth about its axis (a
     vehicle's heading wavering): each tile's shift is the shift the tiles share plus a
     rotation about the image centre (:func:`_rigid`; ``centres`` ``(tiles, 2)`` px), so the
-    tiles agree on the shared shift once the rotation is taken out too.  Returns the series
-    with both removed, the shift ``(T, 2)`` px and the rotation ``(T,)`` rad removed (each
-    less its mean motion), or the series and None, None where the tiles share no shift
-    (``min_ratio``)."""
+    tiles agree on the shared shift once the rotation is taken out too.  The rotation is
+    taken only where it stands ``min_ratio`` above the tiles' noise too; else this is
+    :func:`remove_shake` (the same bits) and the rotation None.  Returns the series with
+    what was found removed, the shift ``(T, 2)`` px and the rotation ``(T,)`` rad (each less
+    its mean motion), or the series and None, None where the tiles share no shift."""
     centres = np.asarray(centres, dtype=np.float64)
+    first = _shakes(series, kx, ky)
+    if not _rigid(first, centres)[3] >= min_ratio:
+        # no rotation standing above the tiles' noise: the shift alone, as remove_shake
+        # takes it (the same bits)
+        return (*_remove_shake(series, kx, ky, min_ratio, first), None)
     total = rot = None
     out = series
-    for _ in range(JITTER_PASSES):
-        shift, theta, ratio = _rigid(_shakes(out, kx, ky), centres)
+    for k in range(JITTER_PASSES):
+        shift, theta, ratio, _ = _rigid(first if k == 0 else _shakes(out, kx, ky), centres)
         if (not (np.all(np.isfinite(shift)) and np.all(np.isfinite(theta)))
                 or (total is None and not ratio >= min_ratio)):
             break

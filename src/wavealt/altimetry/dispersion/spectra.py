@@ -17,7 +17,8 @@ from wavealt.altimetry.dispersion.constants import (
     MIN_FIT_MODES,
     STATIC_NORM_FRACTION,
 )
-from wavealt.altimetry.dispersion.jitter import remove_shake
+from wavealt.altimetry.dispersion.attitude import tile_centres
+from wavealt.altimetry.dispersion.jitter import remove_motion, remove_shake
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
 #: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
@@ -325,8 +326,10 @@ class _Spectra:
         if like is not None and like["corners"] == corners and like["frames"] == t:
             series = (like.get("_series"), like.get("_series_modes"))
         limit = self.max_modes if max_modes is None else max_modes
+        centres = (np.array(tile_centres(signal.shape[1:], parts[0].shape[1:])) if corners
+                   else None)
         q, kx, ky, kappa, series, modes, shake = self._share_table(
-            parts, basis, denom, limit, carried, series, like and like.get("shake"))
+            parts, basis, denom, limit, carried, series, like and like.get("shake"), centres)
         return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
                 "tile": parts[0].shape[1:], "carried": carried, "_series": series,
                 "_series_modes": modes, "shake": shake}
@@ -334,7 +337,8 @@ class _Spectra:
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
                      series: tuple[np.ndarray | None, np.ndarray | None] | None = None,
-                     shaken: np.ndarray | None = None) -> tuple[Any, ...]:
+                     shaken: np.ndarray | None = None,
+                     centres: np.ndarray | None = None) -> tuple[Any, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts; the modes' ``kx, ky, kappa``; the parts' mean-free mode series
@@ -370,7 +374,10 @@ class _Spectra:
             if len(parts) == 4 and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, removed
                 # (:mod:`.jitter`)
-                g, shake = remove_shake(g, kx[idx], ky[idx])
+                if centres is not None:  # the shift and a rotation about the centre
+                    g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
+                else:
+                    g, shake = remove_shake(g, kx[idx], ky[idx])
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))

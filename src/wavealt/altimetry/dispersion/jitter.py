@@ -20,7 +20,10 @@ their own modes; their mean is the estimate and their scatter its noise, so a sh
 removed only where the tiles agree on it (``JITTER_MIN_RATIO``).  Removal multiplies each
 mode's series by ``exp(i k . s_t)``.  Marine-radar image sequences are registered for the
 platform's motion the same way, by its common phase (Young, Rosenthal & Ziemer 1985, for a
-ship's radar).
+ship's radar).  A camera whose heading also wavers turns the image about its centre, which
+moves each tile along its own tangent: the four tiles' mean is untouched, but they agree on
+it less; where the tiles show such a rotation above their noise it is read and removed with
+the shift (:func:`remove_motion`).
 """
 
 from __future__ import annotations

@@ -38,9 +38,9 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "water's unknown current [1 m/s]; blind while none is heard.")
 @click.option("--tilt-from-vehicle", is_flag=True,
               help="With --live and --mavlink: level each frame with the vehicle's ATTITUDE "
-                   "when it was taken (a camera fixed to the airframe, image top toward the "
-                   "nose; ATTITUDE is asked for at 50 Hz), or each window with the latest "
-                   "where ATTITUDE comes too seldom.")
+                   "when it was taken and turn it back at its heading (a camera fixed to the "
+                   "airframe, image top toward the nose; ATTITUDE is asked for at 50 Hz), or "
+                   "each window with the latest where ATTITUDE comes too seldom.")
 @click.option("--camera-latency-ms", type=float, default=None, metavar="MS",
               help="With --tilt-from-vehicle: how long a frame takes from its exposure to its "
                    "decoding here (the camera's and the link's delay); each frame is levelled "

@@ -35,18 +35,11 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_shake import shake_at, shaken_view  # noqa: E402
+from bench_shake import attitude_of, shake_at, shaken_view  # noqa: E402
 from bench_yaw import CAMERA_PX, SEAS, check_sea_args, report, run_rows, sea_parser  # noqa: E402
 
 #: The frames' clock starts here (s): any start will do, the attitude is a function of time.
 T0 = 1000.0
-
-
-def _attitude(seed: int, index: int, amp: float):
-    def at(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        deg = shake_at(seed, index, amp, np.asarray(times) - T0)
-        return np.radians(deg[:, 0]), np.radians(deg[:, 1])
-    return at
 
 
 def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
@@ -74,9 +67,9 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...],
         for delay in delays_ms:
             right, wrong = LatencyMeter(), LatencyMeter()
             got = None if shake is None else right.add(
-                shake, taken + delay / 1e3, _attitude(seed, index, amp), focal)
+                shake, taken + delay / 1e3, attitude_of(seed, index, amp, T0), focal)
             false = None if shake is None else wrong.add(
-                shake, taken + delay / 1e3, _attitude(seed, index + 1, amp), focal)
+                shake, taken + delay / 1e3, attitude_of(seed, index + 1, amp, T0), focal)
             out.append({"seed": seed, "index": index, "amplitude_deg": amp, "delay_ms": delay,
                         "shake_px": None if shake is None
                         else float(np.sqrt((shake**2).sum(axis=1).mean())),

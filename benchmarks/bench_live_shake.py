@@ -39,7 +39,7 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_shake import SHAKE_HZ, shake_at, shaken_view  # noqa: E402
+from bench_shake import SHAKE_HZ, attitude_of, shake_at, shaken_view  # noqa: E402
 from bench_yaw import CAMERA_PX, SEAS, check_sea_args, report, run_rows, sea_parser  # noqa: E402
 from bench_yaw import summarise  # noqa: E402
 
@@ -113,10 +113,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
         deg = shake_at(seed, index, amp, taken - T0)
         clip = np.clip(shaken_view(sea_seen, deg, focal, CAMERA_PX), 0.0, 1.0)
 
-        def attitude_at(times: np.ndarray, amp: float = amp) -> tuple[np.ndarray, np.ndarray]:
-            d = shake_at(seed, index, amp, np.asarray(times) - T0)
-            return np.radians(d[:, 0]), np.radians(d[:, 1])
-
+        attitude_at = attitude_of(seed, index, amp, T0)
         stream = VehicleLevelling(lambda w, h: calib, altimeter=level_est)
         for start in range(0, frames - window + 1, step):
             part = slice(start, start + window)

@@ -70,6 +70,15 @@ def shake_at(seed: int, index: int, amplitude_deg: float, times_s: np.ndarray) -
     return amplitude_deg * np.sin(2.0 * np.pi * f[None, :] * t + phi[None, :])
 
 
+def attitude_of(seed: int, index: int, amplitude_deg: float, t0: float = 0.0):
+    """:func:`shake_at` as the vehicle's attitude history gives it: ``at(times)``, roll
+    and pitch in radians at ``times`` s on a clock whose frame 0 is taken at ``t0``."""
+    def at(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        deg = shake_at(seed, index, amplitude_deg, np.asarray(times) - t0)
+        return np.radians(deg[:, 0]), np.radians(deg[:, 1])
+    return at
+
+
 def shake_attitudes(seed: int, index: int, amplitude_deg: float, frames: int,
                     fps: float, lag_s: float = 0.0) -> np.ndarray:
     """:func:`shake_at` of the ``frames`` frames, or ``lag_s`` before each."""

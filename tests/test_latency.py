@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter, image_shake
-from wavealt.camera import tilt_rotation
 from wavealt.live.latency import (
     MIN_WINDOWS,
     LatencyMeter,
@@ -46,22 +45,25 @@ def _shake(rng: np.random.Generator, amp_deg: float):
     return at
 
 
+def _bench(name: str):
+    """``benchmarks/<name>.py``, whose cameras these tests fly."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    path = str(Path(__file__).resolve().parents[1] / "benchmarks")
+    if path not in sys.path:
+        sys.path.insert(0, path)
+    return importlib.import_module(name)
+
+
 def _shaken(frames: np.ndarray, focal_px: float, roll: np.ndarray,
             pitch: np.ndarray) -> np.ndarray:
     """The central SIDE px of a camera at each frame's roll and pitch (radians) over the
-    level camera's frames (OpenCV's homography of the rotation)."""
-    import cv2
-
-    t, h, w = frames.shape
-    k = np.array([[focal_px, 0, (w - 1) / 2], [0, focal_px, (h - 1) / 2], [0, 0, 1.0]])
-    k_out = np.array([[focal_px, 0, (SIDE - 1) / 2], [0, focal_px, (SIDE - 1) / 2],
-                      [0, 0, 1.0]])
-    out = [cv2.warpPerspective(frames[i].astype(np.float32),
-                               k @ tilt_rotation(math.degrees(roll[i]), math.degrees(pitch[i]))
-                               @ np.linalg.inv(k_out), (SIDE, SIDE),
-                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                               borderMode=cv2.BORDER_REFLECT) for i in range(t)]
-    return np.clip(np.stack(out), 0.0, 1.0)
+    level camera's frames (``bench_shake.shaken_view``: OpenCV's homography of the
+    rotation), in [0, 1]."""
+    deg = np.degrees(np.stack([roll, pitch], axis=-1))
+    return np.clip(_bench("bench_shake").shaken_view(frames, deg, focal_px, SIDE), 0.0, 1.0)
 
 
 def test_the_attitudes_shift_is_the_focal_length_times_the_angle() -> None:
@@ -188,14 +190,8 @@ def test_a_stream_is_levelled_at_its_mean_attitude_until_the_delay_is_known(sea)
 
 def _turned(frames: np.ndarray, headings_deg: np.ndarray) -> np.ndarray:
     """A level camera's view of ``frames`` (north up) at each frame's heading
-    (``benchmarks/bench_live_shake.py``'s geometry)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from bench_live_shake import turned_view
-
-    return turned_view(frames, headings_deg)
+    (``bench_live_shake.turned_view``)."""
+    return _bench("bench_live_shake").turned_view(frames, headings_deg)
 
 
 def test_a_wavering_heading_is_read_as_a_rotation_and_times_the_frames_too(sea) -> None:

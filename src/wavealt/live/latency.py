@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from wavealt.altimetry.dispersion.jitter import detrend
 from wavealt.camera import tilt_rotation
 
 #: Candidate delays from exposure to arrival, s: a USB or CSI camera and its driver take
@@ -57,15 +58,6 @@ def attitude_shift(roll_rad: np.ndarray, pitch_rad: np.ndarray, focal_px: float)
                      zip(np.degrees(roll).ravel(), np.degrees(pitch).ravel())])
     shift = -focal_px * axes[:, :2] / axes[:, 2:]
     return shift.reshape(*roll.shape, 2)
-
-
-def detrend(series: np.ndarray) -> np.ndarray:
-    """``series`` ``(..., T, 2)`` less its mean and least-squares line over the T axis."""
-    t = series.shape[-2]
-    frames = np.arange(t, dtype=np.float64) - (t - 1) / 2.0
-    out = series - series.mean(axis=-2, keepdims=True)
-    slope = (frames[:, None] * out).sum(axis=-2, keepdims=True) / max(np.sum(frames**2), 1e-30)
-    return out - slope * frames[:, None]
 
 
 class LatencyMeter:
@@ -120,9 +112,8 @@ class LatencyMeter:
             turn = -radius_px * np.asarray(heads, dtype=np.float64).reshape(times.shape)
             seen = radius_px * np.asarray(rotation_rad, dtype=np.float64)
             # the rotation as a third column, detrended as the shifts are
-            pred = np.concatenate([pred, detrend(np.stack([turn, turn], -1))[..., :1]], -1)
-            measured = np.concatenate([measured, detrend(np.stack([seen, seen], -1))[:, :1]],
-                                      -1)
+            pred = np.concatenate([pred, detrend(turn[..., None])], -1)
+            measured = np.concatenate([measured, detrend(seen[:, None])], -1)
         mm = float((measured**2).sum())
         dot = (pred * measured).sum(axis=(1, 2))
         pp = np.maximum((pred**2).sum(axis=(1, 2)), 1e-30)

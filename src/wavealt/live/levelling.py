@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from wavealt.altimetry.dispersion.jitter import detrend
 from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, SHAKE_MIN_RATIO, LatencyMeter
 
 #: Views kept per stream (each a half-degree box of attitudes, or one attitude).
@@ -153,9 +154,7 @@ class VehicleLevelling:
             return out, view.focal_px, info
         heads = heading_at(arrivals) if heading_at is not None else None
         if heads is not None:  # the delay not yet known: is the turn steady?
-            k = np.arange(len(heads)) - (len(heads) - 1) / 2.0
-            dev = heads - heads.mean() - k * float((k * heads).sum() / max((k**2).sum(), 1e-30))
-            waver = math.degrees(float(np.sqrt(np.mean(dev**2))))
+            waver = math.degrees(float(np.sqrt(np.mean(detrend(heads[:, None]) ** 2))))
             if waver > MAX_YAW_WAVER_DEG:
                 info["distrust"] = (f"the vehicle's heading wavered by {waver:.2f} deg about a "
                                     f"steady turn over the window, and the camera's delay "

@@ -123,11 +123,17 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
     e -= e.mean(axis=1, keepdims=True)
     shift[:, 1:] = np.cumsum(e, axis=1)
     # no trend: the mean motion is the drift's (least-squares line over the frames)
+    return detrend(shift)
+
+
+def detrend(series: np.ndarray) -> np.ndarray:
+    """``series`` ``(..., T, C)`` less its mean and its least-squares line over the T axis
+    (a shake less its mean motion)."""
+    t = series.shape[-2]
     frames = np.arange(t, dtype=np.float64) - (t - 1) / 2.0
-    mean = shift.mean(axis=1, keepdims=True)
-    slope = (frames[None, :, None] * (shift - mean)).sum(axis=1, keepdims=True) / np.sum(
-        frames**2)
-    return shift - mean - slope * frames[None, :, None]
+    out = series - series.mean(axis=-2, keepdims=True)
+    slope = (frames[:, None] * out).sum(axis=-2, keepdims=True) / max(np.sum(frames**2), 1e-30)
+    return out - slope * frames[:, None]
 
 
 def common_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray
@@ -176,6 +182,14 @@ def _remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, min_ratio:
     return out, total
 
 
+def _tangents(centres: np.ndarray) -> np.ndarray:
+    """How tiles at ``centres`` ``(tiles, 2)`` px from the image centre move per radian of
+    rotation about it, ``(-c_y, c_x)``, less their mean (zero for tiles placed
+    symmetrically): ``(tiles, 2)``."""
+    perp = np.stack([-centres[:, 1], centres[:, 0]], axis=-1)
+    return perp - perp.mean(axis=0)
+
+
 def _rigid(shakes: np.ndarray, centres: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The tiles' shifts ``shakes`` ``(tiles, T, 2)`` as one rigid motion of the image about
@@ -186,8 +200,7 @@ def _rigid(shakes: np.ndarray, centres: np.ndarray
     1 where the tiles turn no more than their noise)."""
     n = shakes.shape[0]
     shift = shakes.mean(axis=0)
-    perp = np.stack([-centres[:, 1], centres[:, 0]], axis=-1)  # (tiles, 2)
-    perp = perp - perp.mean(axis=0)
+    perp = _tangents(centres)
     rest = shakes - shift
     theta = np.einsum("itk,ik->t", rest, perp) / max(float((perp**2).sum()), 1e-30)
     rest = rest - theta[None, :, None] * perp[:, None, :]
@@ -217,6 +230,7 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
         # no rotation standing above the tiles' noise: the shift alone, as remove_shake
         # takes it (the same bits)
         return (*_remove_shake(series, kx, ky, min_ratio, first), None)
+    perp = _tangents(centres)
     total = rot = None
     out = series
     for k in range(JITTER_PASSES):
@@ -224,8 +238,7 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
         if (not (np.all(np.isfinite(shift)) and np.all(np.isfinite(theta)))
                 or (total is None and not ratio >= min_ratio)):
             break
-        moved = shift[None] + theta[None, :, None] * np.stack(
-            [-centres[:, 1], centres[:, 0]], axis=-1)[:, None, :]  # (tiles, T, 2)
+        moved = shift[None] + theta[None, :, None] * perp[:, None, :]  # (tiles, T, 2)
         phase = (kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:])
         out = out * _phasor(phase)
         out -= out.mean(axis=1, keepdims=True)

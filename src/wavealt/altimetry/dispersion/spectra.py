@@ -18,7 +18,7 @@ from wavealt.altimetry.dispersion.constants import (
     STATIC_NORM_FRACTION,
 )
 from wavealt.altimetry.dispersion.attitude import tile_centres
-from wavealt.altimetry.dispersion.jitter import remove_motion, remove_shake
+from wavealt.altimetry.dispersion.jitter import remove_motion
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
 #: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
@@ -348,11 +348,12 @@ class _Spectra:
         removed first (:func:`_remove_carried`).  ``series``: ``(series, their modes)`` of
         the same parts, already taken, used where they hold every mode (a copy is
         changed).  Frames read by a rolling shutter (:data:`ROLLING`, once a first fit gave
-        a velocity) take :meth:`_rolled_share_table`.  The four corner tiles' series of a
-        clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first: the image shift
-        they share, a shaking camera's, is removed (:func:`.jitter.remove_shake`); the
-        shake removed, ``(T, 2)`` px, is the last of the returned values (None for none;
-        for ``series`` given, ``shaken``, theirs)."""
+        a velocity) take :meth:`_rolled_share_table`.  The corner tiles' series (``centres``:
+        theirs from the frame's centre, px; None for other parts) of a clip of at least
+        ``JITTER_MIN_FRAMES`` frames are steadied first: the image shift they share, a
+        shaking camera's, is removed (:func:`.jitter.remove_motion`); the shake removed,
+        ``(T, 2)`` px, is the last of the returned values (None for none; for ``series``
+        given, ``shaken``, theirs)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
@@ -371,13 +372,10 @@ class _Spectra:
             g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
             # the temporal mean of every pixel, removed where it is cheap: per selected mode
             g -= g.mean(axis=1, keepdims=True)
-            if len(parts) == 4 and t >= JITTER_MIN_FRAMES:
-                # a shaking camera: the image shift the corner tiles share, removed
-                # (:mod:`.jitter`)
-                if centres is not None:  # the shift and a rotation about the centre
-                    g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
-                else:
-                    g, shake = remove_shake(g, kx[idx], ky[idx])
+            if centres is not None and t >= JITTER_MIN_FRAMES:
+                # a shaking camera: the image shift the corner tiles share, with a rotation
+                # about the centre where they show one, removed (:mod:`.jitter`)
+                g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))

@@ -17,7 +17,11 @@ The estimator tabulates, for every spatial mode of the frame's four corner tiles
 image is closest to linear in slope), the share of its temporal energy that one travelling
 wave explains as a function of the phase step per frame (a whitened, sharpened periodogram
 of the mode's complex amplitudes over the clip), and scores a candidate
-``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts:
+``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts.  Near nadir a
+camera also records the square of the slope, whose sum and difference products of wave
+pairs fill each mode's periodogram off its shell and pull a short clip's peak; each mode's
+explained energy is taken less the products' expected share, predicted from the frames'
+own space-time covariance and skewness (:mod:`.continuum`).  The searches:
 
 * **exact** (the camera's velocity over the water known, e.g. from satellite navigation):
   a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;

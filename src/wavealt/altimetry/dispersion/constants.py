@@ -98,6 +98,11 @@ MIN_FRAMES = 3
 #: part of the clip's ``T``: the table holds nothing there, and a carried pattern's removal
 #: leaves such a mode as it is.
 STATIC_NORM_FRACTION = 0.05
+#: The square's share of a part's variance (:func:`.continuum.square_share`) is read from
+#: its skewness on every this-many-th pixel each way: the skewness of a sea's image is set
+#: by its few wavelengths across a tile, not by its pixels (a quarter of them cost a quarter
+#: of the time).
+CONTINUUM_SKEW_STEP = 2
 #: A fit is not trusted where a pattern carried rigidly across the image (phase steps
 #: ``-kappa . u``, no dispersion) scores at least this part of the fit's own shell
 #: (:meth:`~.trust._Trust._rigid_verdict`): the line then explains the motion as well as

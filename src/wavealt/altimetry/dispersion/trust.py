@@ -304,8 +304,10 @@ class _Trust:
             like = (None if series is None
                     else {"corners": False, "frames": t, "_series": series[i:i + 1],
                           "_series_modes": p["_series_modes"]})
-            # a quarter of the modes: the tile holds a quarter of the corners' data
-            q = self._fit_periodogram(tile, corners=False, like=like,
+            # a quarter of the modes: the tile holds a quarter of the corners' data; its
+            # table keeps the optics' square (``continuum=False``), as the bars of the
+            # tile tests were set on (``docs/dispersion.md``, twenty-seventh session)
+            q = self._fit_periodogram(tile, corners=False, like=like, continuum=False,
                                       max_modes=max(self.max_modes // 4, 8))
             if q is None:
                 continue

@@ -82,13 +82,15 @@ def centring_map(t: int) -> np.ndarray:
     return a
 
 
-def continuum_lags(parts: list[np.ndarray], idx: np.ndarray,
-                   window: np.ndarray) -> np.ndarray:
+def continuum_lags(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
+                   planes: np.ndarray | None = None) -> np.ndarray:
     """Per part, the autocorrelation sums ``r_l = sum_s X_{s+l} conj(X_s)``
     (``l = 0 .. T-1``) that the square of the part's linear term is expected to add to the
     mean-free series of its modes ``idx`` (flat rfft2 indices of the ``(h, w)`` plane), as
     the periodogram takes them (each frame times ``window``): ``(len(parts), len(idx),
-    T)`` complex64.
+    T)`` complex64.  ``planes``: the parts' windowed frames' rfft2 planes where already
+    made (``(len(parts), T, h, w // 2 + 1)``; the part's mean times the window's plane is
+    taken from them instead of transforming again).
 
     ``R(l, x)`` is the windowed frames' space-time autocovariance per pair of frames (the
     part's mean removed; circular in space, as the plane is); the square's covariance
@@ -100,11 +102,15 @@ def continuum_lags(parts: list[np.ndarray], idx: np.ndarray,
     centre = centring_map(t).T.astype(np.complex64)  # (2t-1, t)
     out = np.zeros((len(parts), idx.size, t), dtype=np.complex64)
     lagged = None
+    wplane = None if planes is None else scipy.fft.rfft2(window, workers=1)
     for i, part in enumerate(parts):
         share = square_share(part[:, ::CONTINUUM_SKEW_STEP, ::CONTINUUM_SKEW_STEP])
         if share <= 0.0:
             continue
-        f = scipy.fft.rfft2((part - np.float32(part.mean())) * window, workers=1)
+        if planes is None:
+            f = scipy.fft.rfft2((part - np.float32(part.mean())) * window, workers=1)
+        else:
+            f = planes[i] - np.float32(part.mean()) * wplane
         # sum over pairs s of X_{s+l} conj(X_s), every mode, per pair: in real arithmetic
         # (half the time of complex products; a short transform over the frames per mode
         # is slower than either up to 30 frames and more)

@@ -59,9 +59,11 @@ def _hann2d(h: int, w: int) -> np.ndarray:
     return win
 
 
-def _windowed_modes(parts: list[np.ndarray], idx: np.ndarray) -> np.ndarray:
+def _windowed_modes(parts: list[np.ndarray], idx: np.ndarray,
+                    whole: bool = False) -> Any:
     """Hann-windowed 2-D spectra of equal-sized ``(T, h, w)`` float32 ``parts`` (views
-    welcome) at the flat rfft2 indices ``idx``: ``(len(parts), T, len(idx))`` complex64.
+    welcome) at the flat rfft2 indices ``idx``: ``(len(parts), T, len(idx))`` complex64;
+    with ``whole``, also the whole planes ``(len(parts), T, h, w // 2 + 1)``.
 
     The FFTs are SciPy's (single precision). On the corner tiles they are as fast as
     PyTorch's MKL transform (four 30-frame 96^2 tiles: 1.8 ms on one core either way), and
@@ -72,7 +74,9 @@ def _windowed_modes(parts: list[np.ndarray], idx: np.ndarray) -> np.ndarray:
     x = np.empty((len(parts), t, h, w), dtype=np.float32)
     for i, part in enumerate(parts):
         np.multiply(part, win, out=x[i])
-    return scipy.fft.rfft2(x, overwrite_x=True).reshape(len(parts), t, -1)[:, :, idx]
+    planes = scipy.fft.rfft2(x, overwrite_x=True)
+    modes = planes.reshape(len(parts), t, -1)[:, :, idx]
+    return (modes, planes) if whole else modes
 
 
 def _fast_len(n: int) -> int:
@@ -356,6 +360,7 @@ class _Spectra:
             return (*self._rolled_share_table(parts, basis, denom, idx, rolling, carried,
                                               continuum), None, None)
         given, pos = _modes_within(series[:2] if series else None, (len(parts), t), idx)
+        planes = None  # the parts' whole windowed planes, where transformed here
         shake = shaken if given is not None else None  # given series: steadied as they were
         cont = None  # the square's continuum (:mod:`.continuum`), of the series' modes
         if given is not None and len(series) > 2 and series[2] is not None:
@@ -368,7 +373,7 @@ class _Spectra:
             else:
                 g = given.copy(order="K") if carried is not None else given
         else:
-            g = _windowed_modes(parts, idx)  # (parts, T, modes) complex64
+            g, planes = _windowed_modes(parts, idx, whole=True)  # (parts, T, modes)
             # the temporal mean of every pixel, removed where it is cheap: per selected mode
             g -= g.mean(axis=1, keepdims=True)
             if centres is not None and t >= JITTER_MIN_FRAMES:
@@ -381,7 +386,7 @@ class _Spectra:
         explained, energy = _explained(g, basis)
         if continuum:
             if cont is None:
-                cont = continuum_lags(parts, idx, _hann2d(h, w))
+                cont = continuum_lags(parts, idx, _hann2d(h, w), planes)
             # each mode's explained energy less the square's expected share of it
             explained -= explained_of_lags(cont.sum(axis=0), basis.shape[0] // 2)
             np.maximum(explained, np.float32(0.0), out=explained)

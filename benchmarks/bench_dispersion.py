@@ -137,7 +137,7 @@ CSV_FIELDS = ("row", "preset", "frames", "seed", "index", "condition", "status",
               "altitude_m", "est_altitude_m", "est_std_m", "rel_err", "trusted", "reason",
               "mode", "quality", "wind_speed_mps", "drift_mps", "current_mps",
               "true_vx_mps", "true_vy_mps", "given_vx_mps", "given_vy_mps",
-              "est_vx_mps", "est_vy_mps", "latency_ms")
+              "est_vx_mps", "est_vy_mps", "latency_ms", "signal", "yaw_rate_dps")
 
 
 # -- per process ------------------------------------------------------------------------------
@@ -294,13 +294,15 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
     if isinstance(res, Exception):
         return {"status": "estimate-error", "est_altitude_m": math.nan, "est_std_m": math.nan,
                 "rel_err": math.nan, "trusted": False, "reason": f"ValueError: {res}",
-                "mode": None, "quality": 0.0, "est_vx_mps": math.nan, "est_vy_mps": math.nan}
+                "mode": None, "quality": 0.0, "est_vx_mps": math.nan, "est_vy_mps": math.nan,
+                "signal": None, "yaw_rate_dps": math.nan}
     return {"status": "ok", "est_altitude_m": float(res.altitude_m),
             "est_std_m": float(res.altitude_std_m),
             "rel_err": (float(res.altitude_m) - altitude_m) / altitude_m,
             "trusted": bool(res.trusted), "reason": res.reason, "mode": res.mode,
             "quality": float(res.quality), "est_vx_mps": float(res.camera_velocity_mps[0]),
-            "est_vy_mps": float(res.camera_velocity_mps[1])}
+            "est_vy_mps": float(res.camera_velocity_mps[1]), "signal": res.signal,
+            "yaw_rate_dps": math.nan if res.yaw_rate_dps is None else float(res.yaw_rate_dps)}
 
 
 def run_sequence(task: tuple) -> list[dict[str, Any]]:

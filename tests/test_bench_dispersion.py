@@ -3,6 +3,7 @@ refused with one line."""
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -44,6 +45,10 @@ def test_the_encoder_option_reaches_the_realistic_frames(tmp_path) -> None:
         assert runs[comp]["settings"]["realistic_camera"]["compression"] == comp
         lines = out.with_suffix(".csv").read_text().splitlines()
         assert len(lines) == 3  # header, clean, glinty
+        # each window names the path its estimate took and the turn it read
+        for rec in csv.DictReader(lines):
+            assert rec["signal"].split("/")[0] in ("luma", "chroma"), rec["signal"]
+            assert float(rec["yaw_rate_dps"]) == 0.0 or "+yaw" in rec["signal"]
     assert runs["jpeg"]["settings"]["realistic_camera"]["jpeg_quality"] == 40
     est = [[line.split(",")[8] for line in (tmp_path / f"{c}.csv").read_text().splitlines()[1:]]
            for c in ("none", "jpeg")]

@@ -431,3 +431,19 @@ def test_the_fit_and_its_tiles_disagree_at_most_at_the_agreement_bar_by_chance()
         reason = est._tile_verdict(tiles, res)
         fired += reason is not None and "from the fit" in reason
     assert fired / n < 0.01, fired / n
+
+
+def test_a_measured_yaw_rates_uncertainty_joins_the_altitudes() -> None:
+    """The altitude's change at one standard error more of a measured yaw rate is added to
+    its uncertainty in quadrature (log altitude), and the fit judged again."""
+    est = DispersionAltimeter()
+    steady = est._rate_uncertain(_fit_result(10.0, 0.02, significance=100.0),
+                                 _fit_result(10.02, 0.02))
+    assert steady.trusted  # 0.2 % more: sigma hypot(2, 0.2) %, 3 sigma under 10 %
+    assert steady.altitude_std_m == pytest.approx(10.0 * np.hypot(0.02, np.log(1.002)))
+    moved = est._rate_uncertain(_fit_result(10.0, 0.02, significance=100.0),
+                                _fit_result(10.5, 0.02))
+    assert not moved.trusted and "3-sigma uncertainty" in moved.reason
+    low = est._rate_uncertain(_fit_result(10.0, 0.02, significance=100.0),
+                              _fit_result(9.5, 0.02))  # either way
+    assert not low.trusted

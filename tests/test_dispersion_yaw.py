@@ -137,6 +137,8 @@ def test_a_yawing_camera_reads_its_altitude_with_its_yaw_rate_given_or_measured(
     # may set the tiles apart (then not trusted): the reading holds either way
     assert "+yaw" in measured.signal, measured
     assert abs(measured.altitude_m / still.altitude_m - 1.0) < 0.03
+    # the measured rate's uncertainty is in the altitude's: no surer than the rate told
+    assert measured.altitude_std_m >= told.altitude_std_m * 0.999
     declared = est.estimate(clip, yaw_rate_dps=0.0, **kw)  # declared still: not measured
     assert declared.yaw_rate_dps == 0.0 and "+yaw" not in declared.signal
     assert abs(measured.yaw_rate_dps / rate - 1.0) < 0.2

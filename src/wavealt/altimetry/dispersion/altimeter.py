@@ -282,19 +282,23 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
         prior = None if velocity_mps is None else (*velocity_mps, velocity_sigma_mps)
         res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
-        turn = self._measured_turn(p, signal, fps) if measure and p is not None else None
+        turned = self._measured_turn(p, signal, fps, True) if measure and p else None
+        turn = None if turned is None else turned[0]
         if (turn is not None and yaw_pass < YAW_PASSES
                 and abs(yaw + turn) <= MAX_YAW_RATE_DPS):
             # The corner tiles show the camera turning about its axis: each sees the water
             # carried its own way, which one velocity does not fit.  The frames are turned
             # back at the rate measured and fitted from the start, as a levelling pass takes
             # out a tilt.
-            res = self._estimate(frames, fps=fps, focal_px=focal_px, velocity_mps=velocity_mps,
-                                 velocity_sigma_mps=velocity_sigma_mps,
-                                 yaw_rate_dps=yaw + turn, binning=binning,
-                                 yaw_pass=yaw_pass + 1)
-            if "+yaw" not in res.signal:
-                res.signal += "+yaw"
+            again = {"frames": frames, "fps": fps, "focal_px": focal_px,
+                     "velocity_mps": velocity_mps, "velocity_sigma_mps": velocity_sigma_mps,
+                     "binning": binning}
+            res = self._estimate(**again, yaw_rate_dps=yaw + turn, yaw_pass=yaw_pass + 1)
+            res.signal += "" if "+yaw" in res.signal else "+yaw"
+            off = res.yaw_rate_dps + turned[1]  # the rate one standard error further
+            if yaw_pass == 0 and res.trusted and abs(off) <= MAX_YAW_RATE_DPS:
+                res = self._rate_uncertain(res, self._estimate(**again, yaw_rate_dps=off,
+                                                               yaw_pass=YAW_PASSES))
             return res
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:

@@ -21,6 +21,7 @@ over the whole image.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -141,15 +142,18 @@ def tile_yaw(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
 
 
 def significant_turn(series: np.ndarray, kx: np.ndarray, ky: np.ndarray,
-                     centres: list[tuple[float, float]], fps: float) -> float | None:
+                     centres: list[tuple[float, float]], fps: float,
+                     with_sd: bool = False) -> Any:
     """:func:`tile_yaw`'s rate in deg/s (positive: the top of the image turning right, as
     :func:`wavealt.camera.unturn_yaw` takes it) where it is a turn: at least
     ``YAW_SIGMAS`` standard errors from zero, and moving the tiles' centres at least
-    ``YAW_MIN_PX`` px a frame; else None."""
+    ``YAW_MIN_PX`` px a frame; else None.  ``with_sd``: ``(rate, its standard error)``,
+    both deg/s, instead of the rate."""
     om, sd, _ = tile_yaw(series, kx, ky, centres)
     if not math.isfinite(om):
         return None
     reach = abs(om) * max(math.hypot(*c) for c in centres)  # px a frame at the tiles
     if abs(om) < YAW_SIGMAS * sd or reach < YAW_MIN_PX:
         return None
-    return math.degrees(om) * fps
+    rate = math.degrees(om) * fps
+    return (rate, math.degrees(sd) * fps) if with_sd else rate

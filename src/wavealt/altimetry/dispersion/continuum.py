@@ -138,9 +138,9 @@ def continuum_lags(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
 
 def explained_of_lags(r: np.ndarray, n_psi: int) -> np.ndarray:
     """``|z(psi_j)|^2 = sum_l r_l e^{i psi_j l}`` (``r_{-l} = conj(r_l)``) at the table's
-    phase steps ``psi_j = 2 pi j / n_psi``: ``(modes, n_psi)`` float32 of autocorrelation sums
-    ``r`` ``(modes, T)``, one real inverse transform per mode (lags at or past half the
-    table folded onto theirs modulo ``n_psi``)."""
+    phase steps ``psi_j = 2 pi j / n_psi``: ``(modes, n_psi)`` real (float32 for complex64
+    ``r``) of autocorrelation sums ``r`` ``(modes, T)``, one real inverse transform per mode
+    (lags at or past half the table folded onto theirs modulo ``n_psi``)."""
     m, t = r.shape
     if t > n_psi // 2:  # lags reach half the table: folded (the sum stays Hermitian)
         c = np.zeros((m, n_psi), dtype=r.dtype)

@@ -29,9 +29,11 @@ drift band; per row a ``met`` dict of booleans against :data:`ROWS`' targets.
 
 Generated frames are cached under ``benchmarks/cache/`` (``--no-cache`` to skip it) as uint8
 when they hold exact k/255 values, else as float16; the estimator always sees the frames as
-stored, so a cached and a fresh run give the same numbers.  The default run (six rows, two
-seeds, 200 sequences) caches about 21 GB (realistic 8.6 GB, paper 12.6 GB) and takes about an
-hour on one core with the estimator at ~0.7 s per blind call.  With ``--out FILE.json`` the
+stored, so a cached and a fresh run give the same numbers.  Folders that an older
+simulator's source made are counted in one line at the start (``--prune-cache`` removes
+them).  The default run (six rows, two seeds, 200 sequences) caches about 21 GB (realistic
+8.6 GB, paper 12.6 GB) and takes about an hour on one core with the estimator at ~0.7 s per
+blind call.  With ``--out FILE.json`` the
 per-window records go to ``FILE.csv`` beside it.
 """
 
@@ -52,6 +54,7 @@ import json  # noqa: E402
 import math  # noqa: E402
 import multiprocessing  # noqa: E402
 import platform  # noqa: E402
+import shutil  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -194,6 +197,42 @@ def cache_folder(cfg: Any) -> Path:
     blob = json.dumps({"config": d, "simulator": simulator_digest()}, sort_keys=True)
     digest = hashlib.sha1(blob.encode()).hexdigest()[:10]
     return CACHE_DIR / f"{cfg.preset}-seed{cfg.seed}-f{cfg.frames}-{cfg.size}px-{digest}"
+
+
+def stale_cache_folders(cache_dir: Path = CACHE_DIR) -> list[Path]:
+    """The cache's folders of frames that an older simulator made: their name's digest is not
+    the one their ``config.json`` and the simulator's current source give
+    (:func:`cache_folder`).  A folder without a ``config.json`` is not judged."""
+    stale = []
+    for folder in sorted(cache_dir.iterdir()) if cache_dir.is_dir() else []:
+        config = folder / "config.json"
+        if not (folder.is_dir() and config.is_file()):
+            continue
+        d = json.loads(config.read_text())
+        d.pop("sequences", None)
+        blob = json.dumps({"config": d, "simulator": simulator_digest()}, sort_keys=True)
+        if not folder.name.endswith("-" + hashlib.sha1(blob.encode()).hexdigest()[:10]):
+            stale.append(folder)
+    return stale
+
+
+def folder_bytes(folder: Path) -> int:
+    return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+
+
+def check_cache(prune: bool, cache_dir: Path = CACHE_DIR) -> None:
+    """Remove the stale cache folders (``prune``), or say in one line how much they hold
+    where it is a gigabyte or more (a full disk stops a run mid-way)."""
+    stale = stale_cache_folders(cache_dir)
+    size = sum(folder_bytes(f) for f in stale)
+    if prune:
+        for folder in stale:
+            shutil.rmtree(folder)
+        print(f"removed {len(stale)} stale cache folders ({size / 1e9:.1f} GB) from "
+              f"{cache_dir}", file=sys.stderr)
+    elif size >= 1e9:
+        print(f"note: {cache_dir} holds {size / 1e9:.1f} GB of frames from older simulator "
+              f"code ({len(stale)} folders); --prune-cache removes them", file=sys.stderr)
 
 
 def encode(frames: np.ndarray) -> np.ndarray:
@@ -547,6 +586,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="also write the JSON here (atomically) and the windows to .csv beside")
     ap.add_argument("--quick", action="store_true", help="a smoke run: few sequences, one seed")
     ap.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    ap.add_argument("--prune-cache", action="store_true",
+                    help="first remove the cache's folders of frames from older simulator code")
     ap.add_argument("--compression", choices=COMPRESSIONS, default=None,
                     help="the realistic camera's encoder (default: the preset's, jpeg)")
     ap.add_argument("--jpeg-quality", type=int, default=None,
@@ -588,6 +629,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     init_process()
     t0 = time.perf_counter()
+    if not args.no_cache:
+        check_cache(args.prune_cache)
     tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache,
                      args.sensor)
     recs = run_tasks(tasks, args.workers)

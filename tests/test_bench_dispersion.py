@@ -1,9 +1,10 @@
-"""``benchmarks/bench_dispersion.py``: its options reach the simulator, and bad ones are
-refused with one line."""
+"""``benchmarks/bench_dispersion.py``: its options reach the simulator, bad ones are refused
+with one line, and its cache tells frames of an older simulator from the current ones."""
 
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import subprocess
 import sys
@@ -53,3 +54,33 @@ def test_the_encoder_option_reaches_the_realistic_frames(tmp_path) -> None:
     est = [[line.split(",")[8] for line in (tmp_path / f"{c}.csv").read_text().splitlines()[1:]]
            for c in ("none", "jpeg")]
     assert est[0] != est[1]
+
+
+def _bench_module():
+    spec = importlib.util.spec_from_file_location("bench_dispersion_mod", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_cache_folders_of_an_older_simulator_are_found_and_pruned(tmp_path, capsys) -> None:
+    """A folder is stale where its name's digest is not the one its config and the current
+    simulator give; the current one, and one without a config, are kept."""
+    bench = _bench_module()
+    cfg = bench.sim_config("realistic", 10, 5, 3, 64)
+    current = tmp_path / bench.cache_folder(cfg).name
+    older = tmp_path / (current.name[:-10] + "0123456789")
+    unjudged = tmp_path / "paper-seed5-f10-64px-abcdefabcd"
+    for folder in (current, older, unjudged):
+        folder.mkdir()
+        (folder / "0000-clean.npy").write_bytes(b"x" * 1000)
+    for folder in (current, older):
+        (folder / "config.json").write_text(json.dumps(cfg.to_dict(), indent=2) + "\n")
+    assert bench.stale_cache_folders(tmp_path) == [older]
+    bench.check_cache(False, tmp_path)  # far under a gigabyte: nothing said, nothing removed
+    assert capsys.readouterr().err == "" and older.exists()
+    bench.check_cache(True, tmp_path)
+    assert "removed 1 stale cache folders" in capsys.readouterr().err
+    assert not older.exists() and current.exists() and unjudged.exists()
+    assert bench.stale_cache_folders(tmp_path / "absent") == []

@@ -334,7 +334,7 @@ class _Spectra:
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
-                     series: tuple[np.ndarray | None, np.ndarray | None] | None = None,
+                     series: tuple[Any, ...] | None = None,
                      shaken: np.ndarray | None = None,
                      centres: np.ndarray | None = None,
                      continuum: bool = True) -> tuple[Any, ...]:
@@ -344,15 +344,16 @@ class _Spectra:
         ``(parts, T, modes)`` complex64 (None where ``carried`` changed them) and the
         plane's indices of their modes.  With ``carried`` (px/frame), each mode's
         least-squares component at the carried pattern's phase step ``-kappa . carried`` is
-        removed first (:func:`_remove_carried`).  ``series``: ``(series, their modes)`` of
-        the same parts, already taken, used where they hold every mode (a copy is
-        changed).  Frames read by a rolling shutter (:data:`ROLLING`, once a first fit gave
-        a velocity) take :meth:`_rolled_share_table`.  The corner tiles' series (``centres``:
-        theirs from the frame's centre, px; None for other parts) of a clip of at least
-        ``JITTER_MIN_FRAMES`` frames are steadied first: the image shift they share, a
-        shaking camera's, is removed (:func:`.jitter.remove_motion`); the shake removed,
-        ``(T, 2)`` px, is the last of the returned values (None for none; for ``series``
-        given, ``shaken``, theirs)."""
+        removed first (:func:`_remove_carried`).  ``series``: ``(series, modes[, continuum])``
+        of the same parts, already taken, used where they hold every mode (a copy is
+        changed).  ``continuum``: the optics' square's share (:mod:`.continuum`; its lags,
+        the eighth value returned) is taken out.  Frames read by a rolling shutter
+        (:data:`ROLLING`, once a first fit gave a velocity) take :meth:`_rolled_share_table`.
+        The corner tiles' series (``centres``: theirs from the frame's centre, px; None for
+        other parts) of a clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first:
+        the image shift they share, a shaking camera's, is removed
+        (:func:`.jitter.remove_motion`); the shake removed, ``(T, 2)`` px, is the seventh of
+        the returned values (None for none; for ``series`` given, ``shaken``, theirs)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()

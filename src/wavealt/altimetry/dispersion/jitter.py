@@ -226,7 +226,8 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
     its mean motion), or the series and None, None where the tiles share no shift."""
     centres = np.asarray(centres, dtype=np.float64)
     first = _shakes(series, kx, ky)
-    if not _rigid(first, centres)[3] >= min_ratio:
+    fit = _rigid(first, centres)
+    if not fit[3] >= min_ratio:
         # no rotation standing above the tiles' noise: the shift alone, as remove_shake
         # takes it (the same bits)
         return (*_remove_shake(series, kx, ky, min_ratio, first), None)
@@ -234,7 +235,7 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
     total = rot = None
     out = series
     for k in range(JITTER_PASSES):
-        shift, theta, ratio, _ = _rigid(first if k == 0 else _shakes(out, kx, ky), centres)
+        shift, theta, ratio, _ = fit if k == 0 else _rigid(_shakes(out, kx, ky), centres)
         if (not (np.all(np.isfinite(shift)) and np.all(np.isfinite(theta)))
                 or (total is None and not ratio >= min_ratio)):
             break

@@ -361,8 +361,7 @@ class _Trust:
                         f"{100 * math.expm1(off):+.0f} % from the fit ({z:.1f} sigma): its "
                         f"peak is not theirs")
         if tau > 0.0:
-            res.altitude_std_m = res.altitude_m * math.hypot(res.altitude_std_m
-                                                             / res.altitude_m, tau)
+            _widen(res, tau)
             if self._distrust(res) is not None:  # the wider interval fails the trust bar
                 return (f"the corner tiles' altitudes scatter by {100 * tau:.0f} % beyond "
                         f"their uncertainty: the image scale is not one over the frame (a "
@@ -426,9 +425,7 @@ class _Trust:
         A rate a little off leaves a turn that moves the fit: held out, 8.57 m turning at
         10 deg/s, measured as 7.9, read +11.4 % at sigma 2.9 % (``docs/dispersion.md``,
         twenty-seventh session)."""
-        shift = abs(math.log(moved.altitude_m / res.altitude_m))
-        res.altitude_std_m = res.altitude_m * math.hypot(res.altitude_std_m / res.altitude_m,
-                                                         shift)
+        _widen(res, abs(math.log(moved.altitude_m / res.altitude_m)))
         return self._judge(res)
 
     def _judge(self, res: DispersionResult) -> DispersionResult:
@@ -447,6 +444,12 @@ class _Trust:
             # 3-sigma interval spans the whole altitude range searched
             res.altitude_std_m = max(res.altitude_std_m, (hi - lo) / 3.0)
         return res
+
+
+def _widen(res: DispersionResult, sd_log: float) -> None:
+    """``res``'s uncertainty with ``sd_log`` (log altitude) added in quadrature, in place."""
+    res.altitude_std_m = res.altitude_m * math.hypot(res.altitude_std_m / res.altitude_m,
+                                                     sd_log)
 
 
 def _corner_series(p: dict[str, Any] | None, tile: tuple[int, int]) -> np.ndarray | None:

@@ -158,3 +158,28 @@ def test_taking_the_continuum_out_leaves_the_waves_and_takes_the_square() -> Non
         strong = peak >= np.quantile(peak, 0.5)  # the band's stronger modes
         left = after[strong].max(axis=1).sum() / peak[strong].sum()
         assert kept[0] <= left <= kept[1], (band, left)
+
+
+@pytest.mark.parametrize("t", [3, 10, 30])
+def test_the_lag_sums_are_each_series_autocorrelation_and_compiled_the_same_bits(
+        t: int) -> None:
+    """``lag_sums`` is ``sum_s X_{s+l} conj(X_s)`` of each column (against complex128
+    products), and the compiled loop gives the array form's bits."""
+    from wavealt.altimetry.dispersion import compiled, continuum
+
+    rng = np.random.default_rng(t)
+    x = (rng.standard_normal((t, 517)) + 1j * rng.standard_normal((t, 517))).astype(
+        np.complex64)
+    re, im = continuum.lag_sums(x)
+    direct = np.array([np.sum(x[lag:].astype(np.complex128)
+                              * np.conj(x[:t - lag].astype(np.complex128)), axis=0)
+                       for lag in range(t)])
+    np.testing.assert_allclose(re + 1j * im, direct, rtol=0, atol=1e-5 * t)
+    arrays = [np.full((t, 517), np.nan, dtype=np.float32) for _ in range(4)]
+    r, i = np.ascontiguousarray(x.real), np.ascontiguousarray(x.imag)
+    continuum.lag_sums_arrays(r, i, arrays[0], arrays[1])
+    compiled.lag_sums(r, i, arrays[2], arrays[3])
+    assert np.array_equal(arrays[0], arrays[2]) and np.array_equal(arrays[1], arrays[3])
+    # the lag-0 sum is each series' energy, real
+    np.testing.assert_allclose(arrays[0][0], np.sum(np.abs(x) ** 2, axis=0), rtol=1e-5)
+    assert np.array_equal(arrays[1][0], np.zeros(517, dtype=np.float32))

@@ -1,5 +1,5 @@
-"""The compiled (numba) forms of the searches' inner loops, each the same bits as its array
-form (:mod:`.kernel` says which, and loads this module: importing numba costs about 0.25 s);
+"""The compiled (numba) forms of the searches' inner loops and of the optics' continuum's lag
+sums (:func:`lag_sums`), each the same bits as its array form (:mod:`.kernel` says which, and loads this module: importing numba costs about 0.25 s);
 the blind start's are in :mod:`.compiled_start`.
 
 Every float operation is numpy's, in numpy's order and without fused multiply-adds (numba
@@ -455,3 +455,24 @@ def map_peaks(score: np.ndarray, n_keep: int) -> np.ndarray:
             top_v[k] = s
             n = min(n + 1, n_keep)
     return top[:n]
+
+
+@_jit
+def lag_sums(re: np.ndarray, im: np.ndarray, out_re: np.ndarray, out_im: np.ndarray) -> None:
+    """``out_re + i out_im`` ``(T, P)``, in place: ``sum_s X_{s+l} conj(X_s)`` per lag ``l``
+    and column of ``X = re + i im`` ``(T, P)`` float32, the pairs ``s`` added in ascending
+    order as :func:`~wavealt.altimetry.dispersion.continuum.lag_sums_arrays` adds them."""
+    t, n = re.shape
+    out_re[:] = 0.0
+    out_im[:] = 0.0
+    for s in range(t):
+        yr = re[s]
+        yi = im[s]
+        for lag in range(t - s):
+            xr = re[s + lag]
+            xi = im[s + lag]
+            ar = out_re[lag]
+            ai = out_im[lag]
+            for q in range(n):
+                ar[q] += xr[q] * yr[q] + xi[q] * yi[q]
+                ai[q] += xi[q] * yr[q] - xr[q] * yi[q]

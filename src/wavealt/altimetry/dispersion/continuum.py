@@ -35,6 +35,7 @@ import numpy as np
 import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import CONTINUUM_SKEW_STEP
+from wavealt.altimetry.dispersion.kernel import compiled_module
 
 #: The largest skewness of ``a s + b s^2`` (all square: ``beta = 1 / sqrt(2)``).
 _MAX_SKEW = 2.0 * math.sqrt(2.0)
@@ -82,6 +83,35 @@ def centring_map(t: int) -> np.ndarray:
     return a
 
 
+def lag_sums(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The real and imaginary parts ``(T, P)`` float32 of ``sum_s X_{s+l} conj(X_s)``
+    (``l = 0 .. T-1``, the pairs ``s`` in ascending order) of each column of ``x`` ``(T, P)``
+    complex64: the compiled loop (:func:`~wavealt.altimetry.dispersion.compiled.lag_sums`)
+    where it is loaded, else :func:`lag_sums_arrays`, the same bits."""
+    re, im = np.ascontiguousarray(x.real), np.ascontiguousarray(x.imag)
+    out_re, out_im = np.empty_like(re), np.empty_like(im)
+    ck = compiled_module()
+    (lag_sums_arrays if ck is None else ck.lag_sums)(re, im, out_re, out_im)
+    return out_re, out_im
+
+
+def lag_sums_arrays(re: np.ndarray, im: np.ndarray, out_re: np.ndarray,
+                    out_im: np.ndarray) -> None:
+    """:func:`lag_sums` in numpy array passes, in place: one pass per first frame ``s`` of
+    a pair over every lag at once, in real arithmetic (half the work of complex products)."""
+    t = re.shape[0]
+    out_re[:] = 0.0
+    out_im[:] = 0.0
+    for s in range(t):
+        a_r, a_i, b_r, b_i = re[s:], im[s:], re[s], im[s]
+        prod = a_r * b_r
+        prod += a_i * b_i
+        out_re[:t - s] += prod
+        prod = a_i * b_r
+        prod -= a_r * b_i
+        out_im[:t - s] += prod
+
+
 def continuum_lags(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
                    planes: np.ndarray | None = None) -> np.ndarray:
     """Per part, the autocorrelation sums ``r_l = sum_s X_{s+l} conj(X_s)``
@@ -111,17 +141,11 @@ def continuum_lags(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
             f = scipy.fft.rfft2((part - np.float32(part.mean())) * window, workers=1)
         else:
             f = planes[i] - np.float32(part.mean()) * wplane
-        # sum over pairs s of X_{s+l} conj(X_s), every mode, per pair: in real arithmetic
-        # (half the time of complex products; a short transform over the frames per mode
-        # is slower than either up to 30 frames and more)
+        # sum over pairs s of X_{s+l} conj(X_s), every mode, per lag (compiled where loaded)
         lagged = np.empty_like(f) if lagged is None else lagged
-        re, im = np.ascontiguousarray(f.real), np.ascontiguousarray(f.imag)
-        for lag in range(t):
-            a_r, a_i, b_r, b_i = re[lag:], im[lag:], re[:t - lag], im[:t - lag]
-            lagged[lag].real = (np.einsum("tij,tij->ij", a_r, b_r)
-                                + np.einsum("tij,tij->ij", a_i, b_i))
-            lagged[lag].imag = (np.einsum("tij,tij->ij", a_i, b_r)
-                                - np.einsum("tij,tij->ij", a_r, b_i))
+        lag_re, lag_im = lag_sums(f.reshape(t, -1))
+        lagged.real = lag_re.reshape(f.shape)
+        lagged.imag = lag_im.reshape(f.shape)
         lagged /= pairs
         cov = scipy.fft.irfft2(lagged, s=(h, w), workers=1)  # R(l, x), l >= 0
         cov *= cov

@@ -1,6 +1,7 @@
 """The compiled (numba) forms of the searches' inner loops and of the optics' continuum's lag
-sums (:func:`lag_sums`), each the same bits as its array form (:mod:`.kernel` says which, and loads this module: importing numba costs about 0.25 s);
-the blind start's are in :mod:`.compiled_start`.
+sums (:func:`lag_sums`), each the same bits as its array form (:mod:`.kernel` says which,
+and loads this module: importing numba costs about 0.25 s); the blind start's are in
+:mod:`.compiled_start`.
 
 Every float operation is numpy's, in numpy's order and without fused multiply-adds (numba
 compiles without fast-math): a mean over modes is numpy's pairwise sum

@@ -12,7 +12,11 @@ shell ``psi = s omega(kappa f / h) / fps - kappa . u`` passes through them.  For
 sinusoid of amplitude ``a`` in white noise of variance ``sigma^2``, ``T`` frames measure its
 frequency to ``var psi >= 6 / (SNR T (T^2 - 1))`` at best, ``SNR = |a|^2 / sigma^2`` (Rife &
 Boorstyn, IEEE Trans. Inf. Theory 1974), and ``N`` tiles that share the step add their
-SNRs.  A mode's SNR follows from its explained share ``q`` at the true phase step (the
+SNRs.  A sea is not one sinusoid per mode: the tile's window admits the waves of about
+1.5 bins of wavenumber a dimension, whose phase steps differ by the step's gradient over
+that width, so each tile's peak lies at a random place within that spread (variance
+``|grad psi . Delta|^2 / 12``, divided by the tiles, which see different waters), added to
+the noise's.  A mode's SNR follows from its explained share ``q`` at the true phase step (the
 better of the two directions): the table's expectation
 ``q = (T A + N sigma^2) / (T A + N (T - 1) sigma^2)`` gives
 ``A / sigma^2 = N (q (T - 1) - 1) / (T (1 - q))``, 0 where ``q`` is at the noise's
@@ -94,7 +98,18 @@ def bounds(p: dict[str, Any], est: Any, altitude_m: float, velocity_mps: Sequenc
         sign = np.where(val > best, s, sign)
         best = np.maximum(best, val)
     # 1 / var psi per mode, the modes' shared information discounted
-    info = mode_snr(best, t, tiles) * t * (t * t - 1.0) / 6.0 / HANN_ENBW ** 2
+    with np.errstate(divide="ignore"):
+        var_noise = 6.0 / (mode_snr(best, t, tiles) * t * (t * t - 1.0))
+    # the sea within a mode's bin: waves of the wavenumbers the window admits, whose steps
+    # differ by the step's gradient over the bin (each tile its own draw)
+    grad = -sign * dom / (np.maximum(kappa, 1e-12) * fps)  # d psi / d kappa along kappa
+    gx = grad * kx / np.maximum(kappa, 1e-12) - vx * scale
+    gy = grad * ky / np.maximum(kappa, 1e-12) - vy * scale
+    th, tw = p["tile"]
+    var_bin = ((gx * HANN_ENBW * 2.0 * math.pi / tw) ** 2
+               + (gy * HANN_ENBW * 2.0 * math.pi / th) ** 2) / 12.0 / tiles
+    # 1 / var psi per mode, the modes' shared information discounted
+    info = np.where(np.isfinite(var_noise), 1.0 / (var_noise + var_bin), 0.0) / HANN_ENBW ** 2
     # d psi / d (log h, vx, vy): the velocity in m/s is fixed, its px/frame goes as 1 / h
     g = np.stack([sign * dom / fps + dop, -kx * scale, -ky * scale])
     fisher = (g * info) @ g.T
@@ -115,7 +130,6 @@ def window_bounds(row: bench.RowSpec, seed: int, sequences: int,
     """One record per window of ``row`` and ``seed``: the truth and its three bounds."""
     cfg = bench.sim_config(row.preset, row.frames, seed, sequences, bench.SIZE_PX)
     est = bench.estimator(row.dispersion)
-    tiles = 4  # the corner tiles the periodogram sums
     recs = []
     for i in tqdm(range(sequences), desc=f"{row.name} {seed}", unit="seq", file=sys.stderr):
         sc = cfg.sample_scenario(i)
@@ -131,6 +145,7 @@ def window_bounds(row: bench.RowSpec, seed: int, sequences: int,
             if p is None:
                 rec.update(exact=math.inf, prior=math.inf, blind=math.inf, snr_modes=0)
             else:
+                tiles = 4 if p["corners"] else 1  # the parts the periodogram sums
                 rec.update(bounds(p, est, float(sc.altitude_m), sc.camera_velocity_mps,
                                   cfg.fps, cfg.focal_px, tiles, bench.PRIOR_SIGMA_MPS))
             recs.append(rec)

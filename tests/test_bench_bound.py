@@ -1,6 +1,6 @@
 """``benchmarks/bench_bound.py``: the SNR it reads from a mode's share inverts the share's
 expectation, and its bounds behave as information does (more modes or a prior tighten them,
-a velocity to fit loosens them, noise holds none)."""
+a velocity to fit or wider bins loosen them, noise holds none)."""
 
 from __future__ import annotations
 
@@ -61,18 +61,23 @@ def test_the_bounds_order_and_scale_as_information(bound) -> None:
     est = DispersionAltimeter()
     args = dict(frames=15, altitude=6.0, velocity=(0.4, -0.3), fps=30.0, focal=220.0, est=est)
     p = _table(400, share=0.6, rng=np.random.default_rng(1), **args)
+    p["tile"] = (96, 96)
     b = bound.bounds(p, est, 6.0, (0.4, -0.3), 30.0, 220.0, 4, 1.0)
     # a velocity to fit can only cost precision; a prior on it gives some back
     assert 0 < b["exact"] < b["prior"] <= b["blind"] < math.inf
     assert b["snr_modes"] == 400
     # the same modes twice: twice the information, the bounds / sqrt 2
-    both = {k: np.concatenate([v, v]) if k != "frames" else v for k, v in p.items()}
+    both = {k: v if k in ("frames", "tile") else np.concatenate([v, v]) for k, v in p.items()}
     b2 = bound.bounds(both, est, 6.0, (0.4, -0.3), 30.0, 220.0, 4, 1.0)
     for mode in ("exact", "prior", "blind"):
         assert b2[mode] == pytest.approx(b[mode] / math.sqrt(2.0), rel=1e-4)
     # a higher share at the truth: a higher SNR, a tighter bound
     p_hi = _table(400, share=0.9, rng=np.random.default_rng(1), **args)
+    p_hi["tile"] = (96, 96)
     assert bound.bounds(p_hi, est, 6.0, (0.4, -0.3), 30.0, 220.0, 4, 1.0)["blind"] < b["blind"]
+    # smaller tiles: wider bins, each mode's peak less certain within them
+    small = dict(p, tile=(24, 24))
+    assert bound.bounds(small, est, 6.0, (0.4, -0.3), 30.0, 220.0, 4, 1.0)["exact"] > b["exact"]
     # a table at or below the noise holds no information
     p["q"] = np.full_like(p["q"], (0.9 / 14) ** est.sharpness)
     b0 = bound.bounds(p, est, 6.0, (0.4, -0.3), 30.0, 220.0, 4, 1.0)

@@ -113,8 +113,9 @@ def test_aided_small_frames_do_not_take_a_peak_few_modes_make(index, conditions)
 
 def test_aided_fast_drift_falls_back_to_the_whole_frame() -> None:
     """2.9 m/s at 2.9 m carries the water 7.5 px per frame, across a 48-px corner tile
-    (``corner_tiles=0.2``) within a few frames: the tiles' fit finds no prominent peak (it
-    read 10.8 m), and the whole frame's, which keeps the water in view longer, is taken
+    (``corner_tiles=0.2``) within a few frames: the tiles' fit finds no shell (no peak both
+    significant and prominent; it read 9.2 m), and the whole frame's, which keeps the water
+    in view longer, is taken
     instead (the camera declared level: no 48-px tile holds the waves either, so with the
     attitude unknown nothing measures a tilt, and that fit is not trusted, and says why).
     The default 96-px tiles find the shell themselves."""
@@ -125,7 +126,7 @@ def test_aided_fast_drift_falls_back_to_the_whole_frame() -> None:
     kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
     est = DispersionAltimeter(signal="luma", corner_tiles=0.2, attitude="level")
     corners = est._aided(est._periodogram(est._luma(frames)), frames.shape[0], **kw)
-    assert corners.quality < TRUSTED_QUALITY
+    assert est._shell_seen(corners) < (True, TRUSTED_QUALITY)
     res = est.estimate(frames, **kw)
     assert res.signal == "luma/full"
     assert res.trusted and abs(res.altitude_m / sc.altitude_m - 1.0) < 0.02
@@ -409,15 +410,20 @@ def test_periodogram_takes_the_corner_tiles() -> None:
     corners = est._periodogram(frames)
     assert corners["q"].shape == (600, 64) and corners["frames"] == 6
     assert np.all((corners["q"] >= 0) & (corners["q"] <= 1 + 1e-5))
-    # 0.4 x 128 = 51 -> 48 px tiles: every wavenumber on the 2 pi / 48 grid
-    assert np.allclose(np.mod(corners["kx"] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    # 0.4 x 128 = 51 -> 48 px tiles: every bin on the 2 pi / 48 grid, and each mode's
+    # waves' centroid within a bin of it
+    bins = corners["_bins"]
+    assert np.allclose(np.mod(bins[0] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    assert np.all(np.hypot(corners["kx"] - bins[0], corners["ky"] - bins[1])
+                  < np.sqrt(2.0) * 2 * np.pi / 48)
     changed = frames.copy()
     changed[:, 48:80, :] = rng.normal(size=(6, 32, 128))  # the band between the tiles
     changed[:, :, 48:80] = 7.0
     assert np.array_equal(est._periodogram(changed)["q"], corners["q"])
     whole = DispersionAltimeter(max_modes=600, corner_tiles=0.0)._periodogram(frames)
     assert not np.array_equal(whole["q"], corners["q"])
-    assert not np.allclose(np.mod(whole["kx"] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0, atol=1e-6)
+    assert not np.allclose(np.mod(whole["_bins"][0] * 48 / (2 * np.pi) + 1e-9, 1.0), 0.0,
+                           atol=1e-6)
     small = frames[:, :64, :64]  # 0.4 x 64 = 25 -> 24 px tiles: too small, the whole frame
     assert np.array_equal(est._periodogram(small)["q"],
                           DispersionAltimeter(max_modes=600, corner_tiles=0.0)
@@ -706,11 +712,13 @@ def test_a_point_of_the_blind_profile_left_in_a_poor_velocity_is_searched_again(
     far = u_true + np.array([3.0, -2.0])
     scan[j], path[j] = est._best_velocity(p, 30.0, focal_px, float(grid[j]), far, None, 0.02)
     assert scan[j] < 0.8 * min(scan[j - 1], scan[j + 1])  # a dip of one point
+    dipped = scan.copy()
     est._fill_dips(p, 30.0, focal_px, grid, scan, path, None)
     assert np.allclose(path[j], ridge_path[j], atol=0.02)
-    # a search again only ever raises a point (here also two the ridge's own search left
-    # a little low)
-    assert np.all(scan >= ridge_scan * (1.0 - 1e-6))
+    # a search again only ever raises a point (here also others the ridge's own search
+    # left a little low), and the dip back onto the ridge
+    assert np.all(scan >= dipped)
+    assert np.all(np.delete(scan >= ridge_scan * (1.0 - 1e-6), j))
     assert scan[j] >= 0.98 * ridge_scan[j]
 
 
@@ -927,15 +935,21 @@ def test_a_carried_pattern_is_found_and_removed_and_the_waves_stay() -> None:
     assert ratio >= CARRIED_MIN_RATIO
     pc = est._periodogram(frames, carried=u)
     assert pc["carried"] is u
+
+    def at_bins(per: dict) -> dict:  # the table's modes at their bins, where the roll is
+        kx, ky, kappa = per["_bins"]
+        return {"q": per["q"], "kx": kx, "ky": ky, "kappa": kappa, "frames": per["frames"]}
+
     inf = np.array([np.inf])
-    line = est._mode_values(pc, 30.0, 100.0, inf, u[:1], u[1:])[0]
-    before = est._mode_values(p, 30.0, 100.0, inf, u[:1], u[1:])[0]
-    moving = np.abs(_wrap(pc["kx"] * u[0] + pc["ky"] * u[1])) > 0.5
+    line = est._mode_values(at_bins(pc), 30.0, 100.0, inf, u[:1], u[1:])[0]
+    before = est._mode_values(at_bins(p), 30.0, 100.0, inf, u[:1], u[1:])[0]
+    kx, ky = pc["_bins"][:2]
+    moving = np.abs(_wrap(kx * u[0] + ky * u[1])) > 0.5
     assert np.median(before[moving]) > 10.0 * np.median(p["q"])
     assert np.max(line[moving]) < 1e-6
     # the wave's mode: all of what is left, one travelling wave, at its phase step 0.9
-    m = int(np.argmin(np.hypot(pc["kx"] - k[0], pc["ky"] - k[1])))
-    assert np.hypot(pc["kx"][m] - k[0], pc["ky"][m] - k[1]) < 1e-9
+    m = int(np.argmin(np.hypot(kx - k[0], ky - k[1])))
+    assert np.hypot(kx[m] - k[0], ky[m] - k[1]) < 1e-9
     j = int(round(0.9 / (2.0 * np.pi) * pc["q"].shape[1]))
     assert pc["q"][m, j] > 0.9
     assert pc["q"][m, j] >= p["q"][m, j] - 1e-3

@@ -21,7 +21,10 @@ of the mode's complex amplitudes over the clip), and scores a candidate
 camera also records the square of the slope, whose sum and difference products of wave
 pairs fill each mode's periodogram off its shell and pull a short clip's peak; each mode's
 explained energy is taken less the products' expected share, predicted from the frames'
-own space-time covariance and skewness (:mod:`.continuum`).  The searches:
+own space-time covariance and skewness (:mod:`.continuum`).  A tile's window admits into
+each mode the waves of about a bin and a half around it, and on a sea whose spectrum falls
+with the wavenumber the longer ones weigh more: each mode is placed at its waves'
+power-weighted centroid, not at its bin's centre (:mod:`.leakage`).  The searches:
 
 * **exact** (the camera's velocity over the water known, e.g. from satellite navigation):
   a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;

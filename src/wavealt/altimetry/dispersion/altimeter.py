@@ -407,13 +407,13 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             return self._failed(t)
         if prior is not None and prior[2] == 0:
             res = self._aided(p, t, fps, focal_px, prior[:2])
-            if res.quality < TRUSTED_QUALITY and p["corners"]:
+            if self._shell_seen(res) < (True, TRUSTED_QUALITY) and p["corners"]:
                 # A fast drift carries the water across a corner tile within the clip (3 m/s
                 # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer.
                 # Realistic preset, 30 frames, 2.9 m at 2.9 m/s: +593 % flagged -> +0.3 %.
                 whole = self._periodogram(signal, corners=False)
                 alt = self._aided(whole, t, fps, focal_px, prior[:2])
-                if alt.quality > res.quality:
+                if self._shell_seen(alt) > self._shell_seen(res):
                     res = alt
                     res.signal = "full"
                     p["_fitted"] = whole  # the periodogram the result is made of

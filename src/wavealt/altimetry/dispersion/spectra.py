@@ -20,6 +20,8 @@ from wavealt.altimetry.dispersion.constants import (
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_lags
 from wavealt.altimetry.dispersion.jitter import remove_motion
+from wavealt.altimetry.dispersion.leakage import mode_shifts
+from wavealt.altimetry.dispersion.modeseries import modes_within, remove_carried
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
 #: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
@@ -101,43 +103,6 @@ def _corners(arr: np.ndarray, frac: float = 0.5) -> list[np.ndarray]:
     _, h0, w0 = arr.shape
     h, w = _corner_shape(h0, w0, frac)
     return [arr[:, :h, :w], arr[:, :h, w0 - w:], arr[:, h0 - h:, :w], arr[:, h0 - h:, w0 - w:]]
-
-
-def _remove_carried(g: np.ndarray, psi0: np.ndarray) -> None:
-    """Remove from mean-free mode series ``g`` ``(parts, T, modes)``, in place, each mode's
-    least-squares component ``a (e^{-i psi0 t} - mean)`` at its phase step ``psi0`` per frame
-    (a pattern carried across the image without changing: foam riding with the water).
-
-    Its coefficient is ``z(psi0) / D(psi0)`` (:meth:`_Spectra._periodogram`); a mode whose
-    ``psi0`` is so near zero that removing the mean took the pattern (the table's own bound
-    for a static pattern, ``STATIC_NORM_FRACTION``) is kept as it is.
-    """
-    t = g.shape[1]
-    e = np.exp(-1j * np.outer(np.arange(t), psi0))  # (T, modes)
-    e -= e.mean(axis=0, keepdims=True)
-    d0 = np.einsum("tm,tm->m", e.real, e.real) + np.einsum("tm,tm->m", e.imag, e.imag)
-    z0 = np.einsum("tm,ptm->pm", np.conj(e), g)  # (parts, modes)
-    coef = np.where(d0 >= STATIC_NORM_FRACTION * t, 1.0, 0.0) * z0 / np.maximum(d0, 1e-9)
-    g -= (coef[:, None, :] * e[None]).astype(g.dtype)
-
-
-def _modes_within(series: tuple[np.ndarray | None, np.ndarray | None] | None,
-                  shape: tuple[int, int], idx: np.ndarray
-                  ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Mode series ``series = (g, modes)`` (``g`` ``(parts, T, len(modes))``, ``modes`` the
-    plane's sorted indices of its modes) that hold every mode of ``idx`` (sorted) for parts
-    and frames ``shape``: ``(g, None)`` where they are the same modes, ``(g, positions of
-    idx in modes)`` where ``idx`` is a subset; ``(None, None)`` where they are not given,
-    are of other parts or frames, or lack a mode."""
-    if series is None or series[0] is None or series[0].shape[:2] != shape:
-        return None, None
-    g, modes = series
-    if modes is None or (modes.size == idx.size and np.array_equal(modes, idx)):
-        return (g, None) if g.shape[2] == idx.size else (None, None)
-    pos = np.searchsorted(modes, idx)
-    if pos.size and (pos[-1] >= modes.size or not np.array_equal(modes[pos], idx)):
-        return None, None
-    return g, pos
 
 
 @functools.lru_cache(maxsize=8)
@@ -321,16 +286,20 @@ class _Spectra:
         parts = _corners(signal, self.corner_tiles) if corners else [signal]
         series = None
         if like is not None and like["corners"] == corners and like["frames"] == t:
-            series = (like.get("_series"), like.get("_series_modes"), like.get("_continuum"))
+            series = tuple(like.get(k) for k in ("_series", "_series_modes", "_continuum",
+                                                 "_shift"))
         limit = self.max_modes if max_modes is None else max_modes
         centres = (np.array(tile_centres(signal.shape[1:], parts[0].shape[1:])) if corners
                    else None)
-        q, kx, ky, kappa, series, modes, shake, cont = self._share_table(
+        q, kx, ky, kappa, series, modes, shake, cont, (shift, dk) = self._share_table(
             parts, basis, denom, limit, carried, series, like and like.get("shake"), centres,
             continuum)
-        return {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": t, "corners": corners,
-                "tile": parts[0].shape[1:], "carried": carried, "_series": series,
-                "_series_modes": modes, "shake": shake, "_continuum": cont}
+        # each mode at its waves' centroid (:mod:`.leakage`); the velocity map keeps the bins
+        cx, cy = kx + dk[0], ky + dk[1]
+        return {"q": q, "kx": cx, "ky": cy, "kappa": np.hypot(cx, cy), "frames": t,
+                "corners": corners, "_bins": (kx, ky, kappa), "tile": parts[0].shape[1:],
+                "carried": carried, "_series": series, "_series_modes": modes,
+                "shake": shake, "_continuum": cont, "_shift": shift}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
@@ -340,14 +309,16 @@ class _Spectra:
                      continuum: bool = True) -> tuple[Any, ...]:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
-        parts; the modes' ``kx, ky, kappa``; the parts' mean-free mode series
-        ``(parts, T, modes)`` complex64 (None where ``carried`` changed them) and the
-        plane's indices of their modes.  With ``carried`` (px/frame), each mode's
-        least-squares component at the carried pattern's phase step ``-kappa . carried`` is
-        removed first (:func:`_remove_carried`).  ``series``: ``(series, modes[, continuum])``
-        of the same parts, already taken, used where they hold every mode (a copy is
-        changed).  ``continuum``: the optics' square's share (:mod:`.continuum`; its lags,
-        the eighth value returned) is taken out.  Frames read by a rolling shutter
+        parts; the modes' ``kx, ky, kappa`` (the plane's bins; the shifts ``(2, modes)`` to
+        their waves' centroids, :mod:`.leakage`, of the series' modes and of the table's,
+        are the ninth value returned); the parts' mean-free mode series ``(parts, T,
+        modes)`` complex64 (None where ``carried`` changed them) and the plane's indices of
+        their modes.  With ``carried`` (px/frame), each mode's least-squares component at
+        the carried pattern's phase step ``-kappa . carried`` is removed first
+        (:func:`.modeseries.remove_carried`).  ``series``: ``(series, modes[, continuum,
+        shifts])`` of the same parts, already taken, used where they hold every mode (a
+        copy is changed).  ``continuum``: the optics' square's share (:mod:`.continuum`;
+        its lags, the eighth value returned) is taken out.  Frames read by a rolling shutter
         (:data:`ROLLING`, once a first fit gave a velocity) take :meth:`_rolled_share_table`.
         The corner tiles' series (``centres``: theirs from the frame's centre, px; None for
         other parts) of a clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first:
@@ -358,14 +329,16 @@ class _Spectra:
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
         if rolling is not None and rolling[1] is not None:
-            return (*self._rolled_share_table(parts, basis, denom, idx, rolling, carried,
-                                              continuum), None, None)
-        given, pos = _modes_within(series[:2] if series else None, (len(parts), t), idx)
+            *table, shift = self._rolled_share_table(parts, basis, denom, idx, rolling,
+                                                     carried, continuum)
+            return (*table, None, None, (None, shift))
+        given, pos = modes_within(series[:2] if series else None, (len(parts), t), idx)
         planes = None  # the parts' whole windowed planes, where transformed here
         shake = shaken if given is not None else None  # given series: steadied as they were
-        cont = None  # the square's continuum (:mod:`.continuum`), of the series' modes
-        if given is not None and len(series) > 2 and series[2] is not None:
-            cont = series[2] if pos is None else series[2][:, pos]
+        # the square's continuum (:mod:`.continuum`) and the modes' centroids (:mod:`.leakage`)
+        # of the series' modes, where given
+        cont, shift = ((None, None) if given is None else
+                       (v if v is None or pos is None else v[:, pos] for v in series[2:4]))
         if given is not None:
             # a mode's series and mean are its own: taken from the same transform they are
             # the same bits (copied where the carried pattern's removal changes them)
@@ -383,7 +356,7 @@ class _Spectra:
                 g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
-            _remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
+            remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
         explained, energy = _explained(g, basis)
         if continuum:
             if cont is None:
@@ -391,9 +364,13 @@ class _Spectra:
             # each mode's explained energy less the square's expected share of it
             explained -= explained_of_lags(cont.sum(axis=0), basis.shape[0] // 2)
             np.maximum(explained, np.float32(0.0), out=explained)
+        if shift is None:
+            shift = mode_shifts(parts, idx, _hann2d(h, w), planes)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
+        table_shift = shift
         if not keep.all():
             idx, explained, energy = idx[keep], explained[keep], energy[keep]
+            table_shift = shift[:, keep]
         # explained share |z|^2 / D(psi) / E
         share = explained
         share *= (1.0 / denom).astype(np.float32)[None, :]
@@ -407,7 +384,8 @@ class _Spectra:
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         kept = carried is None
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
-                g if kept else None, modes if kept else None, shake, cont if kept else None)
+                g if kept else None, modes if kept else None, shake, cont if kept else None,
+                (shift if kept else None, table_shift))
 
     def _rolled_share_table(self, parts: list[np.ndarray], basis: np.ndarray,
                             denom: np.ndarray, idx: np.ndarray,
@@ -441,7 +419,7 @@ class _Spectra:
             g -= g.mean(axis=1, keepdims=True)
             series.append(g)
         if carried is not None:
-            _remove_carried(series[0], -(plane_kx[idx] * carried[0]
+            remove_carried(series[0], -(plane_kx[idx] * carried[0]
                                          + plane_ky[idx] * carried[1]))
         n_psi = denom.size
         psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
@@ -468,11 +446,12 @@ class _Spectra:
                   + 2 * s1**2 * dot(a, e) + 2 * s1**3 * dot(b, e))
         total = dot(a, a)
         keep = total > 1e-20 * max(float(total.max(initial=0.0)), 1e-30)
+        shift = mode_shifts(parts, idx, _hann2d(h, w))[:, keep]  # (:mod:`.leakage`)
         idx = idx[keep]
         share = (explained.T[keep] / denom[None, :] / energy.T[keep]).astype(np.float32)
         share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
         return (_sharpen(share, self.sharpness), plane_kx[idx], plane_ky[idx],
-                plane_kappa[idx], None, None)
+                plane_kappa[idx], None, None, shift)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the

@@ -200,6 +200,12 @@ class _Trust:
             return math.inf
         return (2.0 * np.pi / t) * float(np.sum(best * rate)) / den
 
+    @staticmethod
+    def _shell_seen(res: DispersionResult) -> tuple[bool, float]:
+        """How well a fit shows a shell, for choosing between two: its peak significant
+        against random phase steps (``MIN_SIGNIFICANCE``) first, then its quality."""
+        return res.significance >= MIN_SIGNIFICANCE, res.quality
+
     def _distrust(self, res: DispersionResult) -> str | None:
         """Why a finished fit may not be trusted, None when it may (:meth:`_judge`)."""
         lo, hi = self.altitude_range_m

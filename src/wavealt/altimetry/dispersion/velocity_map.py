@@ -29,8 +29,11 @@ class _VelocityMap:
         the altitude, built once per periodogram (cached in ``p``): the lattice and its
         modes (:func:`_map_lattice`) and their share tables' Fourier coefficients."""
         if "_map" not in p:
-            m = dict(_map_lattice(p["kx"], p["ky"], p["kappa"], tuple(p["tile"]),
-                                  int(p["frames"]), int(p["q"].shape[1])))
+            # the modes at their bins, where the lattice is (the periodogram's centroids
+            # are within a bin of them)
+            kx, ky, kappa = p.get("_bins", (p["kx"], p["ky"], p["kappa"]))
+            m = dict(_map_lattice(kx, ky, kappa, tuple(p["tile"]), int(p["frames"]),
+                                  int(p["q"].shape[1])))
             # q(x) = sum_k coef[k] e^{2 pi i k x / n_psi}, up to a constant factor
             m["coef"] = scipy.fft.fft(p["q"][m.pop("modes")], axis=1, workers=1)
             p["_map"] = m

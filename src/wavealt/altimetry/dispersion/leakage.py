@@ -57,17 +57,31 @@ def centroid_shifts(power: np.ndarray, w: int, idx: np.ndarray) -> np.ndarray:
     return np.stack([num_x[r, c] / d * (2.0 * np.pi / w), num_y[r, c] / d * (2.0 * np.pi / h)])
 
 
-def mode_shifts(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
-                planes: np.ndarray | None = None) -> np.ndarray:
-    """:func:`centroid_shifts` of the modes ``idx`` of equal-sized ``parts`` ``(T, h, w)``
-    windowed by ``window``, their power summed over the parts and the frames with each
-    pixel's mean over the frames removed (a still pattern is not a wave).  ``planes``: the
-    windowed frames' rfft2 planes ``(parts, T, h, w // 2 + 1)`` where already made."""
+def plane_powers(parts: list[np.ndarray], window: np.ndarray,
+                 planes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The power of equal-sized ``parts`` ``(T, h, w)`` windowed by ``window``, summed over
+    the frames with each pixel's mean over the frames removed (a still pattern is not a
+    wave), over the rfft2 half plane: summed over the parts ``(h, w // 2 + 1)`` and each
+    part's ``(parts, h, w // 2 + 1)`` (a part alone: its sum's bits), float64.
+    ``planes``: the windowed frames' rfft2 planes ``(parts, T, h, w // 2 + 1)`` where
+    already made (the same bits as transforming the parts here)."""
     t, h, w = parts[0].shape
     power = np.zeros((h, w // 2 + 1))
+    each = np.empty((len(parts), h, w // 2 + 1))
     for i, part in enumerate(parts):
         f = scipy.fft.rfft2(part * window, workers=1) if planes is None else planes[i]
         mean = f.mean(axis=0)
-        power += (f.real ** 2 + f.imag ** 2).sum(axis=0, dtype=np.float64)
-        power -= t * (mean.real.astype(np.float64) ** 2 + mean.imag.astype(np.float64) ** 2)
-    return centroid_shifts(np.maximum(power, 0.0), w, idx)
+        total = (f.real ** 2 + f.imag ** 2).sum(axis=0, dtype=np.float64)
+        still = t * (mean.real.astype(np.float64) ** 2 + mean.imag.astype(np.float64) ** 2)
+        power += total
+        power -= still
+        np.subtract(total, still, out=each[i])
+    return power, each
+
+
+def mode_shifts(parts: list[np.ndarray], idx: np.ndarray, window: np.ndarray,
+                planes: np.ndarray | None = None) -> np.ndarray:
+    """:func:`centroid_shifts` of the modes ``idx`` of ``parts`` windowed by ``window``,
+    from their power summed over the parts (:func:`plane_powers`)."""
+    power = plane_powers(parts, window, planes)[0]
+    return centroid_shifts(np.maximum(power, 0.0), parts[0].shape[2], idx)

@@ -20,7 +20,7 @@ from wavealt.altimetry.dispersion.constants import (
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_lags
 from wavealt.altimetry.dispersion.jitter import remove_motion
-from wavealt.altimetry.dispersion.leakage import mode_shifts
+from wavealt.altimetry.dispersion.leakage import centroid_shifts, mode_shifts, plane_powers
 from wavealt.altimetry.dispersion.modeseries import modes_within, remove_carried
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
@@ -287,11 +287,11 @@ class _Spectra:
         series = None
         if like is not None and like["corners"] == corners and like["frames"] == t:
             series = tuple(like.get(k) for k in ("_series", "_series_modes", "_continuum",
-                                                 "_shift"))
+                                                 "_shift", "_power"))
         limit = self.max_modes if max_modes is None else max_modes
         centres = (np.array(tile_centres(signal.shape[1:], parts[0].shape[1:])) if corners
                    else None)
-        q, kx, ky, kappa, series, modes, shake, cont, (shift, dk) = self._share_table(
+        q, kx, ky, kappa, series, modes, shake, cont, (shift, dk, powers) = self._share_table(
             parts, basis, denom, limit, carried, series, like and like.get("shake"), centres,
             continuum)
         # each mode at its waves' centroid (:mod:`.leakage`); the velocity map keeps the bins
@@ -299,7 +299,7 @@ class _Spectra:
         return {"q": q, "kx": cx, "ky": cy, "kappa": np.hypot(cx, cy), "frames": t,
                 "corners": corners, "_bins": (kx, ky, kappa), "tile": parts[0].shape[1:],
                 "carried": carried, "_series": series, "_series_modes": modes,
-                "shake": shake, "_continuum": cont, "_shift": shift}
+                "shake": shake, "_continuum": cont, "_shift": shift, "_powers": powers}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
@@ -311,12 +311,13 @@ class _Spectra:
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts; the modes' ``kx, ky, kappa`` (the plane's bins; the shifts ``(2, modes)`` to
         their waves' centroids, :mod:`.leakage`, of the series' modes and of the table's,
-        are the ninth value returned); the parts' mean-free mode series ``(parts, T,
-        modes)`` complex64 (None where ``carried`` changed them) and the plane's indices of
-        their modes.  With ``carried`` (px/frame), each mode's least-squares component at
-        the carried pattern's phase step ``-kappa . carried`` is removed first
-        (:func:`.modeseries.remove_carried`).  ``series``: ``(series, modes[, continuum,
-        shifts])`` of the same parts, already taken, used where they hold every mode (a
+        and each part's power over the plane, are the ninth value returned); the parts'
+        mean-free mode series ``(parts, T, modes)`` complex64 (None where ``carried``
+        changed them) and the plane's indices of their modes.  With ``carried`` (px/frame),
+        each mode's least-squares component at the carried pattern's phase step ``-kappa .
+        carried`` is removed first (:func:`.modeseries.remove_carried`).  ``series``:
+        ``(series, modes[, continuum, shifts, the parts' summed power])`` of the same
+        parts, already taken, used where they hold every mode (a
         copy is changed).  ``continuum``: the optics' square's share (:mod:`.continuum`;
         its lags, the eighth value returned) is taken out.  Frames read by a rolling shutter
         (:data:`ROLLING`, once a first fit gave a velocity) take :meth:`_rolled_share_table`.
@@ -331,14 +332,16 @@ class _Spectra:
         if rolling is not None and rolling[1] is not None:
             *table, shift = self._rolled_share_table(parts, basis, denom, idx, rolling,
                                                      carried, continuum)
-            return (*table, None, None, (None, shift))
+            return (*table, None, None, (None, shift, None))
         given, pos = modes_within(series[:2] if series else None, (len(parts), t), idx)
         planes = None  # the parts' whole windowed planes, where transformed here
         shake = shaken if given is not None else None  # given series: steadied as they were
         # the square's continuum (:mod:`.continuum`) and the modes' centroids (:mod:`.leakage`)
-        # of the series' modes, where given
+        # of the series' modes, and the parts' power over the plane, where given
         cont, shift = ((None, None) if given is None else
                        (v if v is None or pos is None else v[:, pos] for v in series[2:4]))
+        power = series[4] if given is not None else None
+        powers = None  # each part's power, where transformed here
         if given is not None:
             # a mode's series and mean are its own: taken from the same transform they are
             # the same bits (copied where the carried pattern's removal changes them)
@@ -365,7 +368,9 @@ class _Spectra:
             explained -= explained_of_lags(cont.sum(axis=0), basis.shape[0] // 2)
             np.maximum(explained, np.float32(0.0), out=explained)
         if shift is None:
-            shift = mode_shifts(parts, idx, _hann2d(h, w), planes)
+            if power is None:
+                power, powers = plane_powers(parts, _hann2d(h, w), planes)
+            shift = centroid_shifts(np.maximum(power, 0.0), w, idx)
         keep = energy > 1e-20 * max(float(energy.max(initial=0.0)), 1e-30)
         table_shift = shift
         if not keep.all():
@@ -385,7 +390,7 @@ class _Spectra:
         kept = carried is None
         return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
                 g if kept else None, modes if kept else None, shake, cont if kept else None,
-                (shift if kept else None, table_shift))
+                (shift if kept else None, table_shift, powers if kept else None))
 
     def _rolled_share_table(self, parts: list[np.ndarray], basis: np.ndarray,
                             denom: np.ndarray, idx: np.ndarray,

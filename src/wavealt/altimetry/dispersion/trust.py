@@ -308,9 +308,12 @@ class _Trust:
         series = _corner_series(p, tiles[0].shape[1:])
         fits = []
         for i, (tile, (x, y)) in enumerate(zip(tiles, centres)):
+            # the tile's series and its power over the plane (its waves' centroids), as
+            # the corner tiles' periodogram took them: the same bits as transforming it
             like = (None if series is None
                     else {"corners": False, "frames": t, "_series": series[i:i + 1],
-                          "_series_modes": p["_series_modes"]})
+                          "_series_modes": p["_series_modes"],
+                          "_power": None if p.get("_powers") is None else p["_powers"][i]})
             # a quarter of the modes: the tile holds a quarter of the corners' data; its
             # table keeps the optics' square (``continuum=False``), as the bars of the
             # tile tests were set on (``docs/dispersion.md``, twenty-seventh session)

@@ -202,7 +202,8 @@ class _Search:
     def _aided(self, p: dict[str, Any], t: int, fps: float, focal_px: float,
                velocity_mps: tuple[float, float]) -> DispersionResult:
         """The aided result of periodogram ``p``: the fit at the weighted scan's peak, or the
-        one at the shrunk scan's when that is trusted and better graded (:meth:`_fit_aided`)."""
+        one at the shrunk or the plain scan's peak when that is trusted and better graded
+        (:meth:`_fit_aided`)."""
         fits = self._fit_aided(p, fps, focal_px, velocity_mps)
         res = self._result(p, fits[0], t, fps, focal_px)
         for fit in fits[1:]:
@@ -233,7 +234,12 @@ class _Search:
         estimate that only the weighting found is not trusted.
 
         Returns the fit at the weighted scan's peak and, where a shrunk weighted scan (see
-        below) peaks elsewhere, the fit there too; :meth:`_aided` grades both.
+        below) or the plain scan peaks elsewhere, the fits there too; :meth:`_aided` grades
+        them all on the plain scan.  The plain scan's own peak is a candidate because the
+        weighting moves the peak on a sea whose long modes turn little in a short clip (a
+        camera at 8-15 m, 10 frames): it rests on the short modes that do turn, where the
+        optics' square puts its sum products just faster than the shell, and reads low
+        (``docs/dispersion.md``, twenty-second and twenty-ninth sessions).
         """
         vx, vy = (float(v) for v in velocity_mps)
         lo, hi = (math.log(a) for a in self.altitude_range_m)
@@ -271,6 +277,10 @@ class _Search:
         k = _most_prominent(shrunk, grid, lo - step, hi + step, **inr)[0]
         if abs(k - i) > 4:
             fits.append(self._fine_aided(p, fps, focal_px, grid[k], step, u_of, scan, grid))
+        # the plain scan's own most prominent peak, where no fit so far has reached it
+        j = _most_prominent(scan, grid, lo - step, hi + step, **inr)[0]
+        if all(abs(grid[j] - fit["logh"]) > 4 * step for fit in fits):
+            fits.append(self._fine_aided(p, fps, focal_px, grid[j], step, u_of, scan, grid))
         return fits
 
     def _fine_aided(self, p: dict[str, Any], fps: float, focal_px: float, center: float,

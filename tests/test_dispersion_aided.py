@@ -1,0 +1,99 @@
+"""The aided (velocity known) fit's candidates: the weighted, shrunk and plain scans' peaks,
+each refined and graded on the plain scan."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter, _wrap
+from wavealt.altimetry.dispersion.constants import AIDED_SCAN_ABOVE, AIDED_SCAN_BELOW
+
+FPS, FOCAL_PX, FRAMES, N_PSI = 30.0, 200.0, 10, 128
+
+
+def _lattice(max_kappa: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One of each +-pair of a 64-px tile's modes between 0.04 and ``max_kappa`` rad/px."""
+    k = np.arange(-32, 32) * (2.0 * math.pi / 64.0)
+    kx, ky = (a.ravel() for a in np.meshgrid(k, k, indexing="ij"))
+    kappa = np.hypot(kx, ky)
+    keep = (kappa > 0.04) & (kappa < max_kappa) & ((kx > 0) | ((kx == 0) & (ky > 0)))
+    return kx[keep], ky[keep], kappa[keep]
+
+
+def _split_table(h_true: float, h_fast: float) -> tuple[dict, np.ndarray]:
+    """A periodogram of a hovering camera at ``h_true`` m in which the modes that turn less
+    than half a cycle over the clip hold the shell (a peak of width ``pi / T``, most of
+    their energy) and the others hold only faster content, at the shell of ``h_fast``."""
+    est = DispersionAltimeter(dispersion="gravity")
+    kx, ky, kappa = _lattice(0.8)
+    psi = 2.0 * math.pi * np.arange(N_PSI) / N_PSI
+
+    def peak(h: float) -> tuple[np.ndarray, np.ndarray]:
+        step = est.omega(kappa * FOCAL_PX / h) / FPS
+        return step, np.exp(-0.5 * (_wrap(psi[None, :] - step[:, None]) / (math.pi / FRAMES))
+                            ** 2)
+
+    step, shell = peak(h_true)
+    fast = step * FRAMES / (2.0 * math.pi) >= 0.5
+    q = 0.9 * shell
+    q[fast] = 0.3 * peak(h_fast)[1][fast]
+    return {"q": (0.02 + q).astype(np.float32), "kx": kx, "ky": ky, "kappa": kappa,
+            "frames": FRAMES}, fast
+
+
+def _grid(est: DispersionAltimeter) -> np.ndarray:
+    lo, hi = (math.log(a) for a in est.altitude_range_m)
+    step = (hi - lo) / (est.n_scan - 1)
+    return np.arange(lo - math.log(AIDED_SCAN_BELOW), hi + math.log(AIDED_SCAN_ABOVE)
+                     + step / 2, step)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_plain_scans_most_prominent_peak_is_always_refined(seed: int) -> None:
+    """Whatever the table, one of the aided fits lies within four coarse steps of the plain
+    scan's most prominent peak in the range (SciPy's prominences), and the result is the
+    first fit's unless a later one is trusted and better graded."""
+    rng = np.random.default_rng(seed)
+    kx, ky, kappa = _lattice(math.pi)
+    q = rng.gamma(0.5, 0.05, (kappa.size, N_PSI)).astype(np.float32)
+    p = {"q": q, "kx": kx, "ky": ky, "kappa": kappa, "frames": FRAMES}
+    est = DispersionAltimeter(dispersion="gravity")
+    velocity = tuple(rng.uniform(-0.5, 0.5, 2))
+    fits = est._fit_aided(p, FPS, FOCAL_PX, velocity)
+    grid, scan = _grid(est), fits[0]["scan"]
+    step = grid[1] - grid[0]
+    lo, hi = (math.log(a) for a in est.altitude_range_m)
+    peaks, props = scipy.signal.find_peaks(scan, prominence=0)
+    near = np.abs(grid[peaks] - 0.5 * (lo + hi)) <= 0.5 * (hi - lo) + step
+    top = grid[peaks[near][np.argmax(props["prominences"][near])]]
+    assert min(abs(f["logh"] - top) for f in fits) <= 4 * step + 1e-9
+    graded = [est._result(p, f, FRAMES, FPS, FOCAL_PX) for f in fits]
+    want = graded[0]
+    for alt in graded[1:]:
+        if alt.quality >= TRUSTED_QUALITY and alt.quality > want.quality:
+            want = alt
+    res = est._aided(p, FRAMES, FPS, FOCAL_PX, velocity)
+    assert (res.altitude_m, res.quality) == (want.altitude_m, want.quality)
+
+
+def test_a_shell_that_only_the_slow_modes_hold_is_kept_over_the_weighted_peak() -> None:
+    """The turn weighting leaves out the modes that turn less than half a cycle; where
+    they alone hold the shell and the turning modes hold faster content (a high camera,
+    a short clip, the optics' sum products on the short modes), the weighted scan peaks
+    low and ungraded, and the plain scan's peak, refined and trusted, is the result."""
+    est = DispersionAltimeter(dispersion="gravity")
+    h_true = 9.0
+    p, fast = _split_table(h_true, 0.7 * h_true)
+    assert 0.3 < fast.mean() < 0.9
+    fits = est._fit_aided(p, FPS, FOCAL_PX, (0.0, 0.0))
+    first = est._result(p, fits[0], FRAMES, FPS, FOCAL_PX)
+    assert first.altitude_m < 0.8 * h_true and first.quality < TRUSTED_QUALITY
+    res = est._aided(p, FRAMES, FPS, FOCAL_PX, (0.0, 0.0))
+    # the plain scan blends in the faster content too, but reads far nearer the shell
+    assert abs(math.log(res.altitude_m / h_true)) < 0.5 * abs(math.log(first.altitude_m
+                                                                     / h_true))
+    assert res.quality >= TRUSTED_QUALITY

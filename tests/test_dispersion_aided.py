@@ -10,7 +10,11 @@ import pytest
 import scipy.signal
 
 from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter, _wrap
-from wavealt.altimetry.dispersion.constants import AIDED_SCAN_ABOVE, AIDED_SCAN_BELOW
+from wavealt.altimetry.dispersion.constants import (
+    AIDED_SCAN_ABOVE,
+    AIDED_SCAN_BELOW,
+    MIN_SIGNIFICANCE,
+)
 
 FPS, FOCAL_PX, FRAMES, N_PSI = 30.0, 200.0, 10, 128
 
@@ -24,10 +28,13 @@ def _lattice(max_kappa: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return kx[keep], ky[keep], kappa[keep]
 
 
-def _split_table(h_true: float, h_fast: float) -> tuple[dict, np.ndarray]:
+def _split_table(h_true: float, h_fast: float, slow_share: float = 0.9,
+                 floor: float = 0.02, seed: int | None = None) -> tuple[dict, np.ndarray]:
     """A periodogram of a hovering camera at ``h_true`` m in which the modes that turn less
-    than half a cycle over the clip hold the shell (a peak of width ``pi / T``, most of
-    their energy) and the others hold only faster content, at the shell of ``h_fast``."""
+    than half a cycle over the clip hold the shell (a peak of width ``pi / T`` holding
+    ``slow_share`` of their energy) and the others hold only faster content, at the shell
+    of ``h_fast``; over a flat ``floor`` (``seed``: a gamma-distributed one of that mean
+    over half its shape instead)."""
     est = DispersionAltimeter(dispersion="gravity")
     kx, ky, kappa = _lattice(0.8)
     psi = 2.0 * math.pi * np.arange(N_PSI) / N_PSI
@@ -39,9 +46,11 @@ def _split_table(h_true: float, h_fast: float) -> tuple[dict, np.ndarray]:
 
     step, shell = peak(h_true)
     fast = step * FRAMES / (2.0 * math.pi) >= 0.5
-    q = 0.9 * shell
+    q = slow_share * shell
     q[fast] = 0.3 * peak(h_fast)[1][fast]
-    return {"q": (0.02 + q).astype(np.float32), "kx": kx, "ky": ky, "kappa": kappa,
+    q += (floor if seed is None
+          else np.random.default_rng(seed).gamma(0.5, floor, q.shape))
+    return {"q": q.astype(np.float32), "kx": kx, "ky": ky, "kappa": kappa,
             "frames": FRAMES}, fast
 
 
@@ -56,7 +65,8 @@ def _grid(est: DispersionAltimeter) -> np.ndarray:
 def test_the_plain_scans_most_prominent_peak_is_always_refined(seed: int) -> None:
     """Whatever the table, one of the aided fits lies within four coarse steps of the plain
     scan's most prominent peak in the range (SciPy's prominences), and the result is the
-    first fit's unless a later one is trusted and better graded."""
+    first fit's unless a later one is trusted and better graded, or significant where the
+    first is not."""
     rng = np.random.default_rng(seed)
     kx, ky, kappa = _lattice(math.pi)
     q = rng.gamma(0.5, 0.05, (kappa.size, N_PSI)).astype(np.float32)
@@ -74,7 +84,8 @@ def test_the_plain_scans_most_prominent_peak_is_always_refined(seed: int) -> Non
     graded = [est._result(p, f, FRAMES, FPS, FOCAL_PX) for f in fits]
     want = graded[0]
     for alt in graded[1:]:
-        if alt.quality >= TRUSTED_QUALITY and alt.quality > want.quality:
+        if ((alt.quality >= TRUSTED_QUALITY and alt.quality > want.quality)
+                or alt.significance >= MIN_SIGNIFICANCE > want.significance):
             want = alt
     res = est._aided(p, FRAMES, FPS, FOCAL_PX, velocity)
     assert (res.altitude_m, res.quality) == (want.altitude_m, want.quality)
@@ -97,3 +108,20 @@ def test_a_shell_that_only_the_slow_modes_hold_is_kept_over_the_weighted_peak() 
     assert abs(math.log(res.altitude_m / h_true)) < 0.5 * abs(math.log(first.altitude_m
                                                                      / h_true))
     assert res.quality >= TRUSTED_QUALITY
+
+
+def test_a_significant_candidate_replaces_a_first_fit_that_is_not() -> None:
+    """A first fit no more significant than random phase steps (``MIN_SIGNIFICANCE``) tells
+    nothing of where the shell is: a later candidate that is significant replaces it, though
+    neither is graded high enough to be trusted."""
+    est = DispersionAltimeter(dispersion="gravity")
+    p, _ = _split_table(12.0, 6.0, slow_share=0.6, seed=0)
+    graded = [est._result(p, f, FRAMES, FPS, FOCAL_PX)
+              for f in est._fit_aided(p, FPS, FOCAL_PX, (0.0, 0.0))]
+    assert graded[0].significance < MIN_SIGNIFICANCE
+    later = [r for r in graded[1:] if r.significance >= MIN_SIGNIFICANCE]
+    assert later and all(r.quality < TRUSTED_QUALITY for r in later)
+    res = est._aided(p, FRAMES, FPS, FOCAL_PX, (0.0, 0.0))
+    assert res.significance >= MIN_SIGNIFICANCE
+    assert res.altitude_m == later[0].altitude_m
+    assert abs(math.log(res.altitude_m / 12.0)) < abs(math.log(graded[0].altitude_m / 12.0))

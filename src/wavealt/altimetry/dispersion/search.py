@@ -13,6 +13,7 @@ from wavealt.altimetry.dispersion.constants import (
     AIDED_SCAN_ABOVE,
     AIDED_SCAN_BELOW,
     AIDED_SHRINK_FRACTION,
+    MIN_SIGNIFICANCE,
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.kernel import explained_shares
@@ -202,13 +203,19 @@ class _Search:
     def _aided(self, p: dict[str, Any], t: int, fps: float, focal_px: float,
                velocity_mps: tuple[float, float]) -> DispersionResult:
         """The aided result of periodogram ``p``: the fit at the weighted scan's peak, or the
-        one at the shrunk or the plain scan's peak when that is trusted and better graded
-        (:meth:`_fit_aided`)."""
+        one at the shrunk or the plain scan's peak (:meth:`_fit_aided`) where that one is
+        trusted and better graded, or significant (``MIN_SIGNIFICANCE``) where the fit it
+        would replace is not: a peak that scores no better than random phase steps tells
+        nothing of where the shell is (realistic preset, 10 frames, a calm sea at 9-15 m:
+        the weighted scan's peak near half the altitude, insignificant, where the plain
+        scan's is significant and within 5 %; ``docs/dispersion.md``, twenty-ninth
+        session)."""
         fits = self._fit_aided(p, fps, focal_px, velocity_mps)
         res = self._result(p, fits[0], t, fps, focal_px)
         for fit in fits[1:]:
             alt = self._result(p, fit, t, fps, focal_px)
-            if alt.quality >= TRUSTED_QUALITY and alt.quality > res.quality:
+            if ((alt.quality >= TRUSTED_QUALITY and alt.quality > res.quality)
+                    or alt.significance >= MIN_SIGNIFICANCE > res.significance):
                 res = alt
         return res
 

@@ -62,6 +62,30 @@ def test_the_tilt_test_fires_at_its_level_on_a_level_camera() -> None:
     assert abs(fired / n - ATTITUDE_LEVEL) < 0.006, fired / n
 
 
+@pytest.mark.parametrize("roll, pitch", [(6.0, -4.0), (-12.0, 10.0)])
+def test_tiles_that_read_a_tilt_fit_it_and_one_wrong_tile_does_not(roll, pitch) -> None:
+    """The tilted model's own chi-square (``tiles - 3`` degrees of freedom) tells a tilt
+    from one tile's wrong peak: tiles that read a tilt's scales within their noise fit it at
+    the test's level as often as the level allows; one tile 30 % off at a sigma of 5 %
+    makes a significant "tilt" that does not fit; three tiles, fitted exactly, always fit."""
+    focal, height = 268.5, 9.0
+    centres = tile_centres((256, 256), (100, 100))
+    rot = tilt_rotation(roll, pitch)
+    true = [math.log(_sea_scale(x, y, focal, rot, height)) for x, y in centres]
+    rng = np.random.default_rng(11)
+    failed, n = 0, 2000
+    for _ in range(n):
+        fits = [(x, y, lh + 0.05 * rng.standard_normal(), 0.05)
+                for (x, y), lh in zip(centres, true)]
+        failed += not fit_tilt(fits, focal).fits(ATTITUDE_LEVEL)
+    assert abs(failed / n - ATTITUDE_LEVEL) < 0.006, failed / n
+    level = [(x, y, math.log(height), 0.05) for x, y in centres]
+    level[2] = (*level[2][:2], math.log(0.7 * height), 0.05)
+    wrong = fit_tilt(level, focal)
+    assert wrong.significant(ATTITUDE_LEVEL) and not wrong.fits(ATTITUDE_LEVEL)
+    assert fit_tilt(level[:3], focal).fits(ATTITUDE_LEVEL)
+
+
 def test_tiles_of_a_symmetric_frame_leave_the_altitude_unmoved_by_the_tilt() -> None:
     centres = tile_centres((256, 256), (100, 100))
     tilt = fit_tilt([(x, y, 1.0, 0.05) for x, y in centres], 268.5)

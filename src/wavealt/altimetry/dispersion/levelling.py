@@ -56,7 +56,7 @@ class _Level:
         for _ in range(ATTITUDE_PASSES):
             step = fit_tilt(fits, focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
-                    or step.tilt_deg > MAX_TILT_DEG):
+                    or not step.fits(ATTITUDE_LEVEL) or step.tilt_deg > MAX_TILT_DEG):
                 break
             turned = tilt_rotation(*step.roll_pitch_deg) @ rot
             roll, pitch = roll_pitch(turned)

@@ -13,6 +13,7 @@ from wavealt.altimetry.dispersion import TRUSTED_QUALITY, DispersionAltimeter, _
 from wavealt.altimetry.dispersion.constants import (
     AIDED_SCAN_ABOVE,
     AIDED_SCAN_BELOW,
+    EDGE_FACTOR,
     MIN_SIGNIFICANCE,
 )
 
@@ -113,7 +114,8 @@ def test_a_shell_that_only_the_slow_modes_hold_is_kept_over_the_weighted_peak() 
 def test_a_significant_candidate_replaces_a_first_fit_that_is_not() -> None:
     """A first fit no more significant than random phase steps (``MIN_SIGNIFICANCE``) tells
     nothing of where the shell is: a later candidate that is significant replaces it, though
-    neither is graded high enough to be trusted."""
+    neither is graded high enough to be trusted; but not from within ``EDGE_FACTOR`` of an
+    end of the range."""
     est = DispersionAltimeter(dispersion="gravity")
     p, _ = _split_table(12.0, 6.0, slow_share=0.6, seed=0)
     graded = [est._result(p, f, FRAMES, FPS, FOCAL_PX)
@@ -125,3 +127,12 @@ def test_a_significant_candidate_replaces_a_first_fit_that_is_not() -> None:
     assert res.significance >= MIN_SIGNIFICANCE
     assert res.altitude_m == later[0].altitude_m
     assert abs(math.log(res.altitude_m / 12.0)) < abs(math.log(graded[0].altitude_m / 12.0))
+    # the same candidate within EDGE_FACTOR of the top of a narrower range: not taken
+    top = DispersionAltimeter(dispersion="gravity", altitude_range_m=(0.5, 8.5))
+    first, *rest = [top._result(p, f, FRAMES, FPS, FOCAL_PX)
+                    for f in top._fit_aided(p, FPS, FOCAL_PX, (0.0, 0.0))]
+    assert first.significance < MIN_SIGNIFICANCE
+    assert any(r.significance >= MIN_SIGNIFICANCE and r.altitude_m > 8.5 / EDGE_FACTOR
+               for r in rest)
+    kept = top._aided(p, FRAMES, FPS, FOCAL_PX, (0.0, 0.0))
+    assert kept.altitude_m == first.altitude_m

@@ -13,6 +13,7 @@ from wavealt.altimetry.dispersion.constants import (
     AIDED_SCAN_ABOVE,
     AIDED_SCAN_BELOW,
     AIDED_SHRINK_FRACTION,
+    EDGE_FACTOR,
     MIN_SIGNIFICANCE,
     TRUSTED_QUALITY,
 )
@@ -209,13 +210,18 @@ class _Search:
         nothing of where the shell is (realistic preset, 10 frames, a calm sea at 9-15 m:
         the weighted scan's peak near half the altitude, insignificant, where the plain
         scan's is significant and within 5 %; ``docs/dispersion.md``, twenty-ninth
-        session)."""
+        session).  A significant peak within ``EDGE_FACTOR`` of an end of the range does
+        not replace it: that is where slow content makes the scan rise to the end (the
+        estimate there is never trusted, and a whole-frame fit that reads the shell no
+        longer replaced a corner fit pinned to the top)."""
         fits = self._fit_aided(p, fps, focal_px, velocity_mps)
+        lo, hi = self.altitude_range_m
         res = self._result(p, fits[0], t, fps, focal_px)
         for fit in fits[1:]:
             alt = self._result(p, fit, t, fps, focal_px)
             if ((alt.quality >= TRUSTED_QUALITY and alt.quality > res.quality)
-                    or alt.significance >= MIN_SIGNIFICANCE > res.significance):
+                    or (alt.significance >= MIN_SIGNIFICANCE > res.significance
+                        and lo * EDGE_FACTOR < alt.altitude_m < hi / EDGE_FACTOR)):
                 res = alt
         return res
 

@@ -27,7 +27,12 @@ with the wavenumber the longer ones weigh more: each mode is placed at its waves
 power-weighted centroid, not at its bin's centre (:mod:`.leakage`).  The searches:
 
 * **exact** (the camera's velocity over the water known, e.g. from satellite navigation):
-  a scan over log altitude and the most *prominent* peak of it, refined on a fine grid;
+  a scan over log altitude and the most *prominent* peak of it, refined on a fine grid.
+  The scan weighted by how far each mode turns over the clip (a mode that stands still
+  holds only the optics' slow products) chooses the first peak; the plain scan's own peak
+  is refined too, since the weighting leans on the short modes, which the square's sum
+  products fill.  A later peak is kept where it shows the shell better: trusted and more
+  prominent, or significant where the first is not (away from the ends of the range);
 * **blind** (velocity unknown): a per-mode phase-step fit (cross-spectra of consecutive
   frames, Gauss–Newton with Tukey weights on ``(log altitude, u)``) gives a start, and the
   altitude is the most prominent significant peak of the score's *profile* over log
@@ -81,7 +86,8 @@ A camera that does not look straight down sees the sea at a scale that changes a
 frame.  The four corner tiles, each fitted alone, measure it: over a level sea a pinhole
 tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f / d_z)^1.5`` at
 pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles' altitudes
-fit that model significantly better than one scale, the frames are levelled at the tilt
+fit that model significantly better than one scale, and within their noise (one tile's
+wrong peak fits neither), the frames are levelled at the tilt
 (:class:`wavealt.camera.NadirView`, :mod:`.levelling`) and fitted again, and the result
 records the attitude.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt

@@ -57,7 +57,7 @@ class TiltFit:
     chi2_level: float
     chi2_tilt: float
     level_var_log: float
-    tiles: int = 3
+    tiles: int
 
     @property
     def roll_pitch_deg(self) -> tuple[float, float]:

@@ -13,7 +13,6 @@ from wavealt.altimetry.dispersion.constants import (
     AIDED_SCAN_ABOVE,
     AIDED_SCAN_BELOW,
     AIDED_SHRINK_FRACTION,
-    EDGE_FACTOR,
     MIN_SIGNIFICANCE,
     TRUSTED_QUALITY,
 )
@@ -215,13 +214,12 @@ class _Search:
         estimate there is never trusted, and a whole-frame fit that reads the shell no
         longer replaced a corner fit pinned to the top)."""
         fits = self._fit_aided(p, fps, focal_px, velocity_mps)
-        lo, hi = self.altitude_range_m
         res = self._result(p, fits[0], t, fps, focal_px)
         for fit in fits[1:]:
             alt = self._result(p, fit, t, fps, focal_px)
             if ((alt.quality >= TRUSTED_QUALITY and alt.quality > res.quality)
                     or (alt.significance >= MIN_SIGNIFICANCE > res.significance
-                        and lo * EDGE_FACTOR < alt.altitude_m < hi / EDGE_FACTOR)):
+                        and self._off_the_edges(alt.altitude_m))):
                 res = alt
         return res
 

@@ -206,9 +206,13 @@ class _Trust:
         against random phase steps (``MIN_SIGNIFICANCE``) first, then its quality."""
         return res.significance >= MIN_SIGNIFICANCE, res.quality
 
+    def _off_the_edges(self, altitude_m: float) -> bool:
+        """Whether an estimate lies farther than ``EDGE_FACTOR`` from both ends of the range."""
+        lo, hi = self.altitude_range_m
+        return lo * EDGE_FACTOR < altitude_m < hi / EDGE_FACTOR
+
     def _distrust(self, res: DispersionResult) -> str | None:
         """Why a finished fit may not be trusted, None when it may (:meth:`_judge`)."""
-        lo, hi = self.altitude_range_m
         rel3 = 3.0 * res.altitude_std_m / res.altitude_m
         if res.significance < MIN_SIGNIFICANCE:
             return res.reason or "no wave signal above the noise"
@@ -217,7 +221,7 @@ class _Trust:
         if rel3 > math.log1p(MAX_TRUSTED_3SIGMA):
             # a reason that widened the interval (the tiles' scatter) says more
             return res.reason or f"3-sigma uncertainty {100 * rel3:.0f} % of the altitude"
-        if not lo * EDGE_FACTOR < res.altitude_m < hi / EDGE_FACTOR:
+        if not self._off_the_edges(res.altitude_m):
             return "at the edge of the altitude range searched"
         return res.reason
 

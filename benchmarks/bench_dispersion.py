@@ -82,6 +82,9 @@ DEFAULT_SEEDS = (23, 31)
 DEFAULT_SEQUENCES = 200
 QUICK_SEQUENCES = 6
 CONDITIONS = ("clean", "glinty")
+#: The realistic camera's encoder settings (``sim_config``'s ``sensor``), which the paper
+#: renderer does not have.
+ENCODER_FIELDS = ("compression", "jpeg_quality")
 #: Scenario ranges of the issue, the same for both presets.
 SCENARIO_OVERRIDES: dict[str, tuple[float, float]] = {
     "altitude_m": (1.0, 15.0),
@@ -167,11 +170,12 @@ def estimator(dispersion: str) -> Any:
 def sim_config(preset: str, frames: int, seed: int, sequences: int, size: int,
                sensor: tuple[tuple[str, Any], ...] = ()) -> Any:
     """The simulator's config of a row's sequences; ``sensor``: ``(field, value)`` pairs of
-    the realistic camera's encoder (``--compression``, ``--jpeg-quality``), which the paper
-    renderer does not have."""
+    the camera: its frame rate (``--fps``, both presets) and the realistic camera's encoder
+    (``--compression``, ``--jpeg-quality``, :data:`ENCODER_FIELDS`), which the paper renderer
+    does not have."""
     from wavealt.sim.config import preset_config
 
-    overrides = dict(sensor) if preset == "realistic" else {}
+    overrides = {k: v for k, v in sensor if preset == "realistic" or k not in ENCODER_FIELDS}
     return preset_config(preset, sequences=sequences, size=size, frames=frames, seed=seed,
                          **SCENARIO_OVERRIDES, **overrides)
 
@@ -592,6 +596,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="the realistic camera's encoder (default: the preset's, jpeg)")
     ap.add_argument("--jpeg-quality", type=int, default=None,
                     help="the realistic camera's JPEG quality, 1-100 (default: the preset's, 90)")
+    ap.add_argument("--fps", type=float, default=None,
+                    help="frames per second of the simulated clips (default: the presets', 30); "
+                         "a row keeps its frame count, so its clip lasts frames / FPS s")
     args = ap.parse_args(argv)
     names = [s.strip() for s in args.rows.split(",") if s.strip()]
     unknown = [n for n in names if n not in ROW_BY_NAME]
@@ -619,8 +626,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         if args.compression not in (None, "jpeg"):
             ap.error(f"--jpeg-quality needs the jpeg encoder; got --compression "
                      f"{args.compression}")
+    if args.fps is not None and not 5.0 <= args.fps <= 240.0:
+        ap.error(f"--fps must be within 5-240; got {args.fps:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
-                                            ("jpeg_quality", args.jpeg_quality))
+                                            ("jpeg_quality", args.jpeg_quality),
+                                            ("fps", args.fps))
                         if v is not None)
     return args
 
@@ -648,6 +658,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
             "realistic_camera": realistic_camera(args.sensor, args.size),
+            "fps": sim_config("paper", 10, 0, 1, args.size, args.sensor).fps,
             "frames": "each row generates its sequences with frames=F directly",
             "frames_as_stored": "uint8 when exact k/255 (realistic: lossless), else float16 "
                                 "(paper); the estimator sees them so, cache or not",

@@ -487,13 +487,14 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
 WORKING_PX: int | None = None
 
 
-def set_size(size: int, working_px: int | None = None) -> None:
+def set_size(size: int, working_px: int | None = None, fps: float = 30.0) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
-    grows with them, its margin around the frame in the same proportion), fitted at the
-    altimeter's working scale ``working_px`` (None: its default); also each worker's
-    initializer."""
-    global SIZE, GRID, WORKING_PX
-    SIZE, GRID, WORKING_PX = size, GRID_PER_SIZE * size // 256, working_px
+    grows with them, its margin around the frame in the same proportion), ``fps`` of them a
+    second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
+    fitted at the altimeter's working scale ``working_px`` (None: its default); also each
+    worker's initializer."""
+    global SIZE, GRID, WORKING_PX, FPS
+    SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
     _altimeter.cache_clear()
 
 
@@ -748,6 +749,9 @@ def main() -> int:
                     help="give the altimeter the rolling shutter's readout time (readout_s)")
     ap.add_argument("--size", type=int, default=SIZE,
                     help="frame side, px, over the same field of view (default 256)")
+    ap.add_argument("--fps", type=float, default=FPS,
+                    help="frames per second of the clips (default 30); a row keeps its frame "
+                         "count, so blind30 lasts 30 / FPS s")
     ap.add_argument("--working-px", type=int, default=None,
                     help="the altimeter's working scale (DispersionAltimeter(working_px=); "
                          "0: frames as they are; default: the altimeter's)")
@@ -767,7 +771,9 @@ def main() -> int:
         ap.error(f"--size must be within 64-2048 px; got {a.size}")
     if a.working_px is not None and a.working_px < 0:
         ap.error(f"--working-px must be >= 0; got {a.working_px}")
-    set_size(a.size, a.working_px)
+    if not 5.0 <= a.fps <= 240.0:
+        ap.error(f"--fps must be within 5-240; got {a.fps:g}")
+    set_size(a.size, a.working_px, a.fps)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -777,7 +783,7 @@ def main() -> int:
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
                   camera=camera, tell_readout=a.tell_readout)
     t0, records = time.perf_counter(), list[dict]()
-    pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px))
+    pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -789,6 +795,7 @@ def main() -> int:
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "size": a.size, "working_px": a.working_px,
+               "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     if a.out:

@@ -1057,7 +1057,8 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     and at least the floor: a fit whose ridge the peak does not beat over +-20 % says so,
     however well its mode groups agree; where the band's term is the larger it is the
     uncertainty, not added to the groups' spread (it is a whole one on clips of
-    ``BAND_CALIBRATED_MIN_FRAMES`` or more; on shorter ones it is added)."""
+    ``BAND_CALIBRATED_MIN_FRAMES`` or more, and as long as that many at ``REFERENCE_FPS``; on
+    shorter ones it is added)."""
     h = 3.0
     frames, focal_px, camera_v = _linear_frames(h, 6.0, 0.5, 30.0, size=128, frames=30)
     est = DispersionAltimeter(dispersion="gravity")
@@ -1076,6 +1077,17 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     short = est._result(p, {**fit, "band_log": 0.2}, BAND_CALIBRATED_MIN_FRAMES - 1, 30.0,
                         focal_px)
     assert short.altitude_std_m / short.altitude_m > PAIRED_BAND_SD_FRACTION * 0.2 * (1 + 1e-6)
+
+    # a clip's length counts as both a duration and frames (REFERENCE_FPS): 30 frames at
+    # 60 fps are the half second that 15 frames at 30 fps are, 60 frames at 60 fps the whole
+    # second; 15 frames at 15 fps are a second, but only 15 frames
+    def sd_log_of(t: int, fps: float) -> float:
+        r = est._result(p, {**fit, "band_log": 0.2}, t, fps, focal_px)
+        return r.altitude_std_m / r.altitude_m
+
+    assert sd_log_of(30, 60.0) == sd_log_of(15, 30.0) > sd_log_of(30, 30.0)
+    assert sd_log_of(60, 60.0) == sd_log_of(30, 30.0)
+    assert sd_log_of(15, 15.0) == sd_log_of(15, 30.0)
 
 
 @pytest.fixture(params=["arrays", "compiled"])

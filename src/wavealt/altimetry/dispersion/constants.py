@@ -4,8 +4,20 @@ DISPERSIONS = ("gravity", "gravity-capillary")
 DEGLINTS = ("none", "clip", "median")
 TILES = ("quadrants", "full")
 SIGNALS = ("auto", "chroma", "luma")
+#: The frame rate, frames/s, at which the clip lengths below (``FULL_CLIP_FRAMES``,
+#: ``BAND_CALIBRATED_MIN_FRAMES``) were measured.  They mark whether the periodogram
+#: resolves the shell from the optics' products and the ridge: its bin, ``2 pi fps / T``
+#: rad/s, is set by the clip's duration, and its noise by the frames.  A clip of ``T``
+#: frames at ``fps`` counts as ``T min(1, REFERENCE_FPS / fps)`` frames
+#: (:meth:`~.trust._Trust._result`): it must reach both the duration and the frames the
+#: constants were measured on.  Counted in frames, a 0.5-s clip at 60 fps took the 1-s
+#: clip's band alone (realistic preset, tuning seed 101, 40 sequences: 15 of 80 windows
+#: trusted, up to 8.6 % off at z 2.8; the same half second at 30 fps: 6, up to 5.6 %);
+#: counted in seconds alone, 5-frame exact clips at 15 fps (1/3 s) were trusted up to
+#: 10.5 % off (``docs/dispersion.md``, thirtieth session).
+REFERENCE_FPS = 30.0
 #: Systematic floor of the fit's relative uncertainty (log altitude), for clips of at least
-#: ``FULL_CLIP_FRAMES`` frames.
+#: ``FULL_CLIP_FRAMES`` frames (at ``REFERENCE_FPS``).
 SD_FLOOR_LOG = 0.01
 #: Shorter clips get the floor ``SD_FLOOR_LOG (FULL_CLIP_FRAMES / T)^3`` (2.9 % at 7 frames,
 #: 8 % at 5, 37 % at 3): with fewer frames the optics' products and the shell share one

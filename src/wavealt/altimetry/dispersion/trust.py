@@ -27,6 +27,7 @@ from wavealt.altimetry.dispersion.constants import (
     MIN_SIGNIFICANCE,
     PAIRED_BAND_SD_FRACTION,
     PROFILE_PROMINENCE,
+    REFERENCE_FPS,
     RESOLUTION_FRACTION,
     RIGID_MAX_RATIO,
     SCAN_PROMINENCE,
@@ -70,8 +71,7 @@ class _Trust:
 
     def _group_curves(self, labels: np.ndarray, vals: np.ndarray) -> np.ndarray:
         """Per-group sums of ``vals`` ``(grid, modes)``: ``(n_groups, grid)``."""
-        # one bincount over (row, group) bins: each bin adds its row's values in the
-        # modes' order, as a bincount per row does
+        # one bincount over (row, group) bins: the sums a bincount per row makes
         g = self.n_groups
         bins = (np.arange(vals.shape[0])[:, None] * g + labels[None, :]).ravel()
         sums = np.bincount(bins, weights=vals.ravel(), minlength=vals.shape[0] * g)
@@ -93,8 +93,9 @@ class _Trust:
         bias they share) are independent and add in quadrature; the band's term is
         calibrated as a whole standard deviation on its own (it covers the errors, bias
         and scatter, at the 68 % rate), so it replaces their sum where it is larger rather
-        than adding to it, on clips long enough for that calibration to hold
-        (``BAND_CALIBRATED_MIN_FRAMES``); on shorter ones it is the systematic term.
+        than adding to it, on clips long enough for that calibration to hold (as many
+        frames as ``BAND_CALIBRATED_MIN_FRAMES``, and as long at ``REFERENCE_FPS``); on
+        shorter ones, the systematic term.
         """
         logh, u = fit["logh"], fit["u"]
         vals = fit["vals"]
@@ -117,14 +118,15 @@ class _Trust:
         # statistical spread of the mode groups, plus a systematic floor: the bias the finite
         # clip and the optics' non-linearity leave (0.2-0.4 % even on an ideal camera, a few
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
+        t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (constants)
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
-                 * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
+                 * max(1.0, FULL_CLIP_FRAMES / t_ref) ** 3)
         spread = float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
         # the band's part of a standard deviation grows on shorter clips
         band = (PAIRED_BAND_SD_FRACTION
-                * max(1.0, BAND_CALIBRATED_MIN_FRAMES / t) ** BAND_SHORT_CLIP_POWER
+                * max(1.0, BAND_CALIBRATED_MIN_FRAMES / t_ref) ** BAND_SHORT_CLIP_POWER
                 * fit["band_log"] if profile else 0.0)
-        if t >= BAND_CALIBRATED_MIN_FRAMES:
+        if t_ref >= BAND_CALIBRATED_MIN_FRAMES:
             # on a flat ridge a small bias moves the peak far: the paired band's width, a
             # whole uncertainty of its own (its fraction is set so that it alone covers
             # 68 % of the errors), where it is the larger

@@ -23,9 +23,9 @@ from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
 
 
-def _clip(path, *, frames: int = 60, size: int = 64, times_s=None):
+def _clip(path, *, frames: int = 60, size: int = 64, times_s=None, fps: float = 30.0):
     cfg = preset_config("paper", size=size, frames=frames, altitude_m=(3.0, 3.0),
-                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3))
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3), fps=fps)
     sc = cfg.sample_scenario(2)
     data = generate_sequence(sc, cfg)
     write_video(path, data.clean, fps=cfg.fps, times_s=times_s)
@@ -96,6 +96,26 @@ def test_windows_never_span_a_gap_in_the_frame_times(tmp_path) -> None:
                        capacity=1000)
     assert summary["windows_skipped_for_gaps"] >= 1
     assert rates and np.allclose(rates, 30.0, rtol=1e-3)
+
+
+@pytest.mark.parametrize("fps", [30.0, 60.0])
+def test_the_default_live_window_is_one_second_of_the_streams_frames(tmp_path, fps) -> None:
+    """Without a window, the times of the stream's first frames give its rate, and every
+    estimate takes one second of frames at it, as a recorded clip's windows do (30 frames
+    of a 60-fps camera are half a second, which reads as the half-second row does)."""
+    _clip(tmp_path / "clip.mp4", frames=round(1.4 * fps), fps=fps)
+    taken = []
+
+    def record(frames: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
+        taken.append((frames.shape[0], rate))
+        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+    summary = run_live(str(tmp_path / "clip.mp4"), estimate=record)
+    n = round(fps)
+    assert (summary["window_frames"], summary["step_frames"]) == (n, n // 15)
+    assert taken and {k for k, _ in taken} == {n}
+    assert np.allclose([r for _, r in taken], fps, rtol=1e-3)
 
 
 def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:

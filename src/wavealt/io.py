@@ -406,7 +406,21 @@ def read_input(path: Path | str) -> np.ndarray:
     return read_video(path)
 
 
-def sliding_windows(n_frames: int, *, window: int, step: int | None = None) -> Iterator[tuple[int, int]]:
+#: Fewest frames of a default window (:func:`one_second_window`).
+MIN_DEFAULT_WINDOW = 10
+
+
+def one_second_window(fps: float) -> int:
+    """Frames of the default window of a clip at ``fps`` frames/s: one second of them, at
+    least ``MIN_DEFAULT_WINDOW``.  The dispersion fit's reach is set by the clip's duration
+    (its periodogram's bin is ``2 pi fps / T`` rad/s), so a fast camera takes more frames:
+    30 frames at 60 fps are half a second, which reads as the half-second row of
+    ``benchmarks/bench_dispersion.py`` does, not the 1-s one."""
+    return max(MIN_DEFAULT_WINDOW, round(float(fps)))
+
+
+def sliding_windows(n_frames: int, *, window: int,
+                    step: int | None = None) -> Iterator[tuple[int, int]]:
     """``(start, stop)`` frame ranges of length ``window`` every ``step`` (default half a
     window); a sequence no longer than ``window`` gives one range covering it all."""
     if int(window) != window or window < 3:
@@ -425,7 +439,7 @@ def sliding_windows(n_frames: int, *, window: int, step: int | None = None) -> I
 
 __all__ = ["FPS_TOLERANCE", "GAP_TOLERANCE", "Clip", "atomic_path", "atomic_save_npz",
            "atomic_write_text", "check_output_folder", "decode_png", "encode_png", "frame_files",
-           "nominal_rate", "publish",
+           "nominal_rate", "one_second_window", "publish",
            "read_clip", "read_frame_times", "read_frames_folder", "read_input", "read_png",
            "read_video", "read_video_timed", "regular_runs", "sliding_windows", "to_uint8",
            "write_frames_folder", "write_png", "write_video"]

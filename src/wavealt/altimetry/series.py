@@ -20,6 +20,7 @@ from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
 from wavealt.io import (
     atomic_write_text,
     check_output_folder,
+    one_second_window,
     regular_runs,
     sliding_windows,
 )
@@ -115,7 +116,7 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
             raise ValueError(msg)
     runs, dropped = regular_runs(t)
     if window is None:
-        window = max(10, round(1.0 / float(np.median(np.diff(t)))))
+        window = one_second_window(1.0 / float(np.median(np.diff(t))))
     ranges = [(a + s0, a + s1) for a, b in runs if b - a >= MIN_FRAMES
               for s0, s1 in sliding_windows(b - a, window=window, step=step)]
     if not ranges:

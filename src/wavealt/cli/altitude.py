@@ -25,7 +25,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
               help="Estimate continuously from a camera device (/dev/video0 with --live-format "
                    "v4l2), a stream URL (rtsp://, udp://, ...), a video file played at its own "
                    "pace, or - for a pipe on standard input; instead of INPUT.  Windows of "
-                   "30 frames, a new estimate every 2 frames (--window, --step).  Logs to "
+                   "1 s of frames at the stream's rate, a new estimate every fifteenth of a "
+                   "window (--window, --step).  Logs to "
                    "OUT/live.csv with --out; stops at the end of the stream, after --duration, "
                    "or on Ctrl-C / SIGTERM.")
 @click.option("--live-format", default=None, metavar="FMT",
@@ -73,7 +74,8 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
 @click.option("--window", type=int, default=None,
               help="Frames per estimate; longer inputs are cut into sliding windows "
                    "[1 s of frames, at least 10].")
-@click.option("--step", type=int, default=None, help="Frames between windows [window/2].")
+@click.option("--step", type=int, default=None,
+              help="Frames between windows [window/2; with --live, window/15].")
 @click.option("--dispersion", type=click.Choice(["auto", "gravity-capillary", "gravity"]),
               default="auto", show_default=True,
               help="Dispersion relation of the waves.  auto: a sequence folder of a wavealt "
@@ -288,9 +290,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         msg = f"--duration must be a positive number of seconds; got {duration!r}"
         raise ValueError(msg)
-    window = 30 if window is None else window
-    step = max(1, window // 15) if step is None else step  # 30 frames: 15 estimates/s at most
-    if window < 3 or step < 1:
+    # window None: one second of the stream's frames; step None: 15 estimates/s at most
+    if (window is not None and window < 3) or (step is not None and step < 1):
         msg = f"--window must be >= 3 and --step >= 1; got {window} and {step}"
         raise ValueError(msg)
     if out is not None:

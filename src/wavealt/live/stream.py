@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.io import regular_runs
+from wavealt.io import nominal_rate, one_second_window, regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
 LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_vx_mps",
@@ -36,6 +36,10 @@ LIVE_COLUMNS = ("wall_time", "time_s", "altitude_m", "altitude_std_m", "camera_v
 LIVE_FILE = "live.csv"
 #: The summary's latency median and p90 are over at most this many of the newest estimates.
 LATENCY_WINDOW = 10000
+#: Frames whose times set a stream's default window (``run_live``'s ``window=None``).
+RATE_PROBE_FRAMES = 8
+#: The reader's buffer while those frames come (before the window is known).
+PROBE_CAPACITY = 1024
 
 
 @dataclass
@@ -138,7 +142,8 @@ class FrameReader(threading.Thread):
 
 
 def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, Any]],
-             window: int, step: int, fmt: str | None = None, duration_s: float | None = None,
+             window: int | None = None, step: int | None = None, fmt: str | None = None,
+             duration_s: float | None = None,
              log: Path | None = None, on_estimate: Callable[[dict[str, Any]], Any] | None = None,
              pace: bool | None = None, capacity: int | None = None) -> dict[str, Any]:
     """Estimate the altitude from ``source`` until it ends, ``duration_s`` passes, or SIGINT /
@@ -151,8 +156,16 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     frames' attitudes spread about it, and ``camera_latency_ms``, the frames' delay behind
     the attitude they were levelled at); each becomes a row of ``log`` (``LIVE_COLUMNS``) and
     is passed to ``on_estimate``.
+
+    ``window``: frames per estimate; None for one second of them at the rate of the stream's
+    first ``RATE_PROBE_FRAMES`` frames (:func:`~wavealt.io.one_second_window`, as a recorded
+    clip's).  ``step``: new frames between estimates; None for a fifteenth of the window (at
+    most 15 estimates a second).  ``capacity``: the reader's buffer, frames (default four
+    windows).  The summary gives the ``window_frames`` and ``step_frames`` used (None where
+    the stream ended before its rate was known).
     """
-    reader = FrameReader(source, capacity=capacity or 4 * window, fmt=fmt, pace=pace)
+    reader = FrameReader(source, capacity=capacity or 4 * (window or PROBE_CAPACITY // 4),
+                         fmt=fmt, pace=pace)
     stop = threading.Event()
     previous = {}
 
@@ -183,6 +196,24 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
         while not stop.is_set():
             if duration_s is not None and time.monotonic() - t_start >= duration_s:
                 break
+            if window is None:  # one second of frames, at the rate the first ones came at
+                items, arrived = reader.snapshot(RATE_PROBE_FRAMES, RATE_PROBE_FRAMES, 0.5)
+                if reader.stats.error:
+                    raise ValueError(reader.stats.error)
+                rate = (nominal_rate(np.array([it.time_s for it in items]))
+                        if arrived >= RATE_PROBE_FRAMES else math.nan)
+                if math.isfinite(rate) and rate > 0:
+                    window = one_second_window(rate)
+                    with reader.lock:
+                        reader.capacity = capacity or 4 * window
+                elif arrived >= RATE_PROBE_FRAMES:
+                    msg = (f"{source}: the times of its first {RATE_PROBE_FRAMES} frames give "
+                           f"no frame rate; give the window in frames")
+                    raise ValueError(msg)
+                elif reader.stats.finished:
+                    break
+                continue
+            step = max(1, window // 15) if step is None else step
             need = max(window, seen + step)
             items, arrived = reader.snapshot(window, need, timeout=0.5)
             if reader.stats.error:
@@ -237,7 +268,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     lat = np.array(latencies) if latencies else np.array([math.nan])
     return {"estimates": rows, "trusted_estimates": trusted, "frames": reader.stats.frames,
             "dropped_frames": reader.stats.dropped, "windows_skipped_for_gaps": skipped,
-            "seconds": round(elapsed, 3),
+            "seconds": round(elapsed, 3), "window_frames": window,
+            "step_frames": None if window is None else step,
             # the steady rate: from the first estimate (once a window has filled) to the last
             "estimates_per_s": (round((rows - 1) / (last_done - first_done), 3)
                                 if rows > 1 and last_done > first_done else 0.0),

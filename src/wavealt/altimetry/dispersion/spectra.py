@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextvars
 import functools
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.fft
@@ -42,6 +42,22 @@ def set_rolling(readout_s: float, fps: float, rows: int) -> contextvars.Token:
                f"({1.0 / fps:g} s)")
         raise ValueError(msg)
     return ROLLING.set((readout_s * fps / rows, None) if readout_s else None)
+
+
+class _Table(NamedTuple):
+    """:meth:`_Spectra._share_table`'s explained-share table and what it kept."""
+
+    q: np.ndarray  # sharpened explained shares (modes, n_psi)
+    kx: np.ndarray  # the table's modes (the plane's bins), rad/px
+    ky: np.ndarray
+    kappa: np.ndarray
+    series: np.ndarray | None  # the parts' mean-free mode series (parts, T, modes), complex64
+    modes: np.ndarray | None  # the plane's indices of the series' modes
+    shake: np.ndarray | None  # the image shift removed (T, 2) px (:mod:`.jitter`)
+    continuum: np.ndarray | None  # the optics' square's lags of the series' modes
+    shift: np.ndarray | None  # (2, modes) to the series' modes' centroids (:mod:`.leakage`)
+    table_shift: np.ndarray  # the same, of the table's modes
+    powers: np.ndarray | None  # each part's power over the plane, where transformed
 
 
 def _wrap(phase: np.ndarray) -> np.ndarray:
@@ -291,48 +307,43 @@ class _Spectra:
         limit = self.max_modes if max_modes is None else max_modes
         centres = (np.array(tile_centres(signal.shape[1:], parts[0].shape[1:])) if corners
                    else None)
-        q, kx, ky, kappa, series, modes, shake, cont, (shift, dk, powers) = self._share_table(
-            parts, basis, denom, limit, carried, series, like and like.get("shake"), centres,
-            continuum)
+        tab = self._share_table(parts, basis, denom, limit, carried, series,
+                                like and like.get("shake"), centres, continuum)
         # each mode at its waves' centroid (:mod:`.leakage`); the velocity map keeps the bins
-        cx, cy = kx + dk[0], ky + dk[1]
-        return {"q": q, "kx": cx, "ky": cy, "kappa": np.hypot(cx, cy), "frames": t,
-                "corners": corners, "_bins": (kx, ky, kappa), "tile": parts[0].shape[1:],
-                "carried": carried, "_series": series, "_series_modes": modes,
-                "shake": shake, "_continuum": cont, "_shift": shift, "_powers": powers}
+        cx, cy = tab.kx + tab.table_shift[0], tab.ky + tab.table_shift[1]
+        return {"q": tab.q, "kx": cx, "ky": cy, "kappa": np.hypot(cx, cy), "frames": t,
+                "corners": corners, "_bins": (tab.kx, tab.ky, tab.kappa),
+                "tile": parts[0].shape[1:], "carried": carried, "_series": tab.series,
+                "_series_modes": tab.modes, "shake": tab.shake, "_continuum": tab.continuum,
+                "_shift": tab.shift, "_powers": tab.powers}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
                      series: tuple[Any, ...] | None = None,
                      shaken: np.ndarray | None = None,
                      centres: np.ndarray | None = None,
-                     continuum: bool = True) -> tuple[Any, ...]:
+                     continuum: bool = True) -> _Table:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
-        parts; the modes' ``kx, ky, kappa`` (the plane's bins; the shifts ``(2, modes)`` to
-        their waves' centroids, :mod:`.leakage`, of the series' modes and of the table's,
-        and each part's power over the plane, are the ninth value returned); the parts'
-        mean-free mode series ``(parts, T, modes)`` complex64 (None where ``carried``
-        changed them) and the plane's indices of their modes.  With ``carried`` (px/frame),
-        each mode's least-squares component at the carried pattern's phase step ``-kappa .
-        carried`` is removed first (:func:`.modeseries.remove_carried`).  ``series``:
-        ``(series, modes[, continuum, shifts, the parts' summed power])`` of the same
-        parts, already taken, used where they hold every mode (a
-        copy is changed).  ``continuum``: the optics' square's share (:mod:`.continuum`;
-        its lags, the eighth value returned) is taken out.  Frames read by a rolling shutter
+        parts, with what it kept (:class:`_Table`; the series, their modes, lags and shifts
+        None where ``carried`` changed them).  With ``carried`` (px/frame), each mode's
+        least-squares component at the carried pattern's phase step ``-kappa . carried`` is
+        removed first (:func:`.modeseries.remove_carried`).  ``series``: ``(series, modes[,
+        continuum, shifts, the parts' summed power])`` of the same parts, already taken,
+        used where they hold every mode (a copy is changed).  ``continuum``: the optics'
+        square's share (:mod:`.continuum`) is taken out.  Frames read by a rolling shutter
         (:data:`ROLLING`, once a first fit gave a velocity) take :meth:`_rolled_share_table`.
         The corner tiles' series (``centres``: theirs from the frame's centre, px; None for
         other parts) of a clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first:
         the image shift they share, a shaking camera's, is removed
-        (:func:`.jitter.remove_motion`); the shake removed, ``(T, 2)`` px, is the seventh of
-        the returned values (None for none; for ``series`` given, ``shaken``, theirs)."""
+        (:func:`.jitter.remove_motion`; ``shake``: None for none; for ``series`` given,
+        ``shaken``, theirs)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
         if rolling is not None and rolling[1] is not None:
-            *table, shift = self._rolled_share_table(parts, basis, denom, idx, rolling,
-                                                     carried, continuum)
-            return (*table, None, None, (None, shift, None))
+            return self._rolled_share_table(parts, basis, denom, idx, rolling, carried,
+                                            continuum)
         given, pos = modes_within(series[:2] if series else None, (len(parts), t), idx)
         planes = None  # the parts' whole windowed planes, where transformed here
         shake = shaken if given is not None else None  # given series: steadied as they were
@@ -388,15 +399,16 @@ class _Spectra:
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         kept = carried is None
-        return (_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
-                g if kept else None, modes if kept else None, shake, cont if kept else None,
-                (shift if kept else None, table_shift, powers if kept else None))
+        return _Table(_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
+                      g if kept else None, modes if kept else None, shake,
+                      cont if kept else None, shift if kept else None, table_shift,
+                      powers if kept else None)
 
     def _rolled_share_table(self, parts: list[np.ndarray], basis: np.ndarray,
                             denom: np.ndarray, idx: np.ndarray,
                             rolling: tuple[float, tuple[float, float]],
                             carried: np.ndarray | None,
-                            continuum: bool = True) -> tuple[Any, ...]:
+                            continuum: bool = True) -> _Table:
         """:meth:`_share_table` of frames read by a rolling shutter, each row ``c`` frames
         after the one above it, with every row's delay undone (``rolling = (c, u)``: ``u``
         the image velocity, px/frame, of a first fit); the mode series are not kept (None).
@@ -455,8 +467,8 @@ class _Spectra:
         idx = idx[keep]
         share = (explained.T[keep] / denom[None, :] / energy.T[keep]).astype(np.float32)
         share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
-        return (_sharpen(share, self.sharpness), plane_kx[idx], plane_ky[idx],
-                plane_kappa[idx], None, None, shift)
+        return _Table(_sharpen(share, self.sharpness), plane_kx[idx], plane_ky[idx],
+                      plane_kappa[idx], None, None, None, None, None, shift, None)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the

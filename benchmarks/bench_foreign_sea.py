@@ -758,7 +758,10 @@ def main() -> int:
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
+    if not 5.0 <= a.fps <= 240.0:
+        ap.error(f"--fps must be within 5-240; got {a.fps:g}")
     if a.self_check:
+        set_size(SIZE, None, a.fps)
         return 0 if self_check() else 1
     rows = tuple(r.strip() for r in a.rows.split(",") if r.strip())
     if set(rows) - set(ROWS):
@@ -771,8 +774,6 @@ def main() -> int:
         ap.error(f"--size must be within 64-2048 px; got {a.size}")
     if a.working_px is not None and a.working_px < 0:
         ap.error(f"--working-px must be >= 0; got {a.working_px}")
-    if not 5.0 <= a.fps <= 240.0:
-        ap.error(f"--fps must be within 5-240; got {a.fps:g}")
     set_size(a.size, a.working_px, a.fps)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)

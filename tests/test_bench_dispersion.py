@@ -25,6 +25,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--compression", "h264", "--jpeg-quality", "50"), "--jpeg-quality needs the jpeg encoder"),
     (("--jpeg-quality", "0"), "--jpeg-quality must be in 1-100"),
     (("--rows", "realistic-30-blnd"), "--rows: unknown"),
+    (("--fps", "2"), "--fps must be within 5-240; got 2"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = _run(*args)
@@ -62,6 +63,19 @@ def _bench_module():
     sys.modules[spec.name] = mod  # its dataclasses look their module up
     spec.loader.exec_module(mod)
     return mod
+
+
+def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic() -> None:
+    """``--fps`` is the camera's, so both renderers take it (and the cache tells the clips
+    apart); the encoder's settings are the realistic camera's alone."""
+    bench = _bench_module()
+    sensor = (("compression", "none"), ("fps", 60.0))
+    paper, realistic = (bench.sim_config(p, 10, 3, 1, 64, sensor) for p in ("paper",
+                                                                             "realistic"))
+    assert paper.fps == realistic.fps == 60.0
+    assert realistic.sensor.compression == "none"
+    assert bench.cache_folder(paper) != bench.cache_folder(bench.sim_config("paper", 10, 3,
+                                                                            1, 64))
 
 
 def test_cache_folders_of_an_older_simulator_are_found_and_pruned(tmp_path, capsys) -> None:

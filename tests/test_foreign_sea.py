@@ -25,12 +25,15 @@ def test_the_generators_physics_checks_pass() -> None:
     rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
     the CIE clear sky's luminance against the standard's formula, and the camera effects
     (phases taken whole or stepped, a rolling shutter's row against a direct render,
-    automatic exposure's gains)."""
-    res = _run("--self-check")
-    assert res.returncode == 0, res.stdout + res.stderr[-2000:]
-    lines = res.stdout.splitlines()
-    assert sum(line.startswith("PASS") for line in lines) == 7
-    assert not any(line.startswith("FAIL") for line in lines)
+    automatic exposure's gains), at 30 and 60 frames/s."""
+    for fps in ("30", "60"):  # at another frame rate too (--fps)
+        res = _run("--self-check", "--fps", fps)
+        assert res.returncode == 0, res.stdout + res.stderr[-2000:]
+        lines = res.stdout.splitlines()
+        assert sum(line.startswith("PASS") for line in lines) == 7
+        assert not any(line.startswith("FAIL") for line in lines)
+    bad = _run("--self-check", "--fps", "2")
+    assert bad.returncode == 2 and "--fps must be within 5-240; got 2" in bad.stderr
 
 
 def test_a_one_clip_run_reports_every_window(tmp_path) -> None:

@@ -1078,16 +1078,18 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
                         focal_px)
     assert short.altitude_std_m / short.altitude_m > PAIRED_BAND_SD_FRACTION * 0.2 * (1 + 1e-6)
 
-    # a clip's length counts as both a duration and frames (REFERENCE_FPS): 30 frames at
-    # 60 fps are the half second that 15 frames at 30 fps are, 60 frames at 60 fps the whole
-    # second; 15 frames at 15 fps are a second, but only 15 frames
-    def sd_log_of(t: int, fps: float) -> float:
-        r = est._result(p, {**fit, "band_log": 0.2}, t, fps, focal_px)
+    # the band's clip length counts as both a duration and frames (REFERENCE_FPS): 30 frames
+    # at 60 fps are the half second that 15 frames at 30 fps are, 60 frames at 60 fps the
+    # whole second; 15 frames at 15 fps are a second, but only 15 frames
+    def sd_log_of(t: int, fps: float, band_log: float = 0.2) -> float:
+        r = est._result(p, {**fit, "band_log": band_log}, t, fps, focal_px)
         return r.altitude_std_m / r.altitude_m
 
     assert sd_log_of(30, 60.0) == sd_log_of(15, 30.0) > sd_log_of(30, 30.0)
     assert sd_log_of(60, 60.0) == sd_log_of(30, 30.0)
     assert sd_log_of(15, 15.0) == sd_log_of(15, 30.0)
+    # the floor's (FULL_CLIP_FRAMES) is a count of frames, whatever they span
+    assert sd_log_of(8, 60.0, 0.0) == sd_log_of(8, 30.0, 0.0) > sd_log_of(10, 30.0, 0.0)
 
 
 @pytest.fixture(params=["arrays", "compiled"])

@@ -118,9 +118,9 @@ class _Trust:
         # statistical spread of the mode groups, plus a systematic floor: the bias the finite
         # clip and the optics' non-linearity leave (0.2-0.4 % even on an ideal camera, a few
         # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
-        t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (constants)
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
-                 * max(1.0, FULL_CLIP_FRAMES / t_ref) ** 3)
+                 * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
+        t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (the band's)
         spread = float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
         # the band's part of a standard deviation grows on shorter clips
         band = (PAIRED_BAND_SD_FRACTION

@@ -26,6 +26,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--jpeg-quality", "0"), "--jpeg-quality must be in 1-100"),
     (("--rows", "realistic-30-blnd"), "--rows: unknown"),
     (("--fps", "2"), "--fps must be within 5-240; got 2"),
+    (("--rows", "realistic-2-blind"), "--rows: unknown ['realistic-2-blind']"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = _run(*args)
@@ -76,6 +77,24 @@ def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic(
     assert realistic.sensor.compression == "none"
     assert bench.cache_folder(paper) != bench.cache_folder(bench.sim_config("paper", 10, 3,
                                                                             1, 64))
+
+
+def test_a_row_of_any_length_is_judged_against_the_contract_alone() -> None:
+    """``PRESET-FRAMES-MODE`` names a row the issue's table does not have (a second at 60
+    fps: ``realistic-60-blind``); it has no MAE target, so its ``met`` holds the contract's
+    keys alone, and the table's rows keep theirs."""
+    bench = _bench_module()
+    row = bench.row_of("realistic-60-blind")
+    assert (row.preset, row.frames, row.mode, row.clean_mae_pct) == ("realistic", 60, "blind",
+                                                                     None)
+    assert bench.row_of("realistic-30-blind") is bench.ROW_BY_NAME["realistic-30-blind"]
+    assert bench.row_of("sea-30-blind") is None and bench.row_of("paper-9999-exact") is None
+    good = {"n": 4, "trusted_off_10pct": 0, "coverage_3sigma_all": 1.0, "trusted_share": 1.0,
+            "rel_mae_pct": 50.0, "median_abs_rel_pct": 9.0, "latency_ms_median": 1.0}
+    m = {c: good for c in bench.CONDITIONS}
+    assert bench.met_of(row, m) == {"no_trusted_off_10pct": True, "coverage_3sigma": True,
+                                    "trusted_share_aim": True}
+    assert not bench.met_of(bench.ROW_BY_NAME["realistic-30-blind"], m)["clean_rel_mae"]
 
 
 def test_cache_folders_of_an_older_simulator_are_found_and_pruned(tmp_path, capsys) -> None:

@@ -187,9 +187,9 @@ def estimator(dispersion: str) -> Any:
 def sim_config(preset: str, frames: int, seed: int, sequences: int, size: int,
                sensor: tuple[tuple[str, Any], ...] = ()) -> Any:
     """The simulator's config of a row's sequences; ``sensor``: ``(field, value)`` pairs of
-    the camera: its frame rate (``--fps``, both presets) and the realistic camera's encoder
-    (``--compression``, ``--jpeg-quality``, :data:`ENCODER_FIELDS`), which the paper renderer
-    does not have."""
+    the camera: its frame rate and field of view (``--fps``, ``--fov-deg``, both presets) and
+    the realistic camera's encoder (``--compression``, ``--jpeg-quality``,
+    :data:`ENCODER_FIELDS`), which the paper renderer does not have."""
     from wavealt.sim.config import preset_config
 
     overrides = {k: v for k, v in sensor if preset == "realistic" or k not in ENCODER_FIELDS}
@@ -620,6 +620,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--fps", type=float, default=None,
                     help="frames per second of the simulated clips (default: the presets', 30); "
                          "a row keeps its frame count, so its clip lasts frames / FPS s")
+    ap.add_argument("--fov-deg", type=float, default=None,
+                    help="the camera's horizontal field of view, degrees (default: the "
+                         "presets', 60)")
     args = ap.parse_args(argv)
     names = [s.strip() for s in args.rows.split(",") if s.strip()]
     unknown = [n for n in names if row_of(n) is None]
@@ -650,9 +653,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                      f"{args.compression}")
     if args.fps is not None and not 5.0 <= args.fps <= 240.0:
         ap.error(f"--fps must be within 5-240; got {args.fps:g}")
+    if args.fov_deg is not None and not 10.0 <= args.fov_deg <= 150.0:
+        ap.error(f"--fov-deg must be within 10-150; got {args.fov_deg:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
                                             ("jpeg_quality", args.jpeg_quality),
-                                            ("fps", args.fps))
+                                            ("fps", args.fps), ("fov_deg", args.fov_deg))
                         if v is not None)
     return args
 
@@ -681,6 +686,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "workers": args.workers, "cache": not args.no_cache,
             "realistic_camera": realistic_camera(args.sensor, args.size),
             "fps": sim_config("paper", 10, 0, 1, args.size, args.sensor).fps,
+            "fov_deg": sim_config("paper", 10, 0, 1, args.size, args.sensor).fov_deg,
             "frames": "each row generates its sequences with frames=F directly",
             "frames_as_stored": "uint8 when exact k/255 (realistic: lossless), else float16 "
                                 "(paper); the estimator sees them so, cache or not",

@@ -26,6 +26,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--jpeg-quality", "0"), "--jpeg-quality must be in 1-100"),
     (("--rows", "realistic-30-blnd"), "--rows: unknown"),
     (("--fps", "2"), "--fps must be within 5-240; got 2"),
+    (("--fov-deg", "170"), "--fov-deg must be within 10-150; got 170"),
     (("--rows", "realistic-2-blind"), "--rows: unknown ['realistic-2-blind']"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
@@ -67,13 +68,14 @@ def _bench_module():
 
 
 def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic() -> None:
-    """``--fps`` is the camera's, so both renderers take it (and the cache tells the clips
-    apart); the encoder's settings are the realistic camera's alone."""
+    """``--fps`` and ``--fov-deg`` are the camera's, so both renderers take them (and the
+    cache tells the clips apart); the encoder's settings are the realistic camera's alone."""
     bench = _bench_module()
-    sensor = (("compression", "none"), ("fps", 60.0))
+    sensor = (("compression", "none"), ("fps", 60.0), ("fov_deg", 90.0))
     paper, realistic = (bench.sim_config(p, 10, 3, 1, 64, sensor) for p in ("paper",
                                                                              "realistic"))
     assert paper.fps == realistic.fps == 60.0
+    assert paper.fov_deg == realistic.fov_deg == 90.0
     assert realistic.sensor.compression == "none"
     assert bench.cache_folder(paper) != bench.cache_folder(bench.sim_config("paper", 10, 3,
                                                                             1, 64))

@@ -267,8 +267,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if min(h, w) < 16:
             msg = f"frames must be at least 16x16 px; got {h}x{w}"
             raise ValueError(msg)
-        # flat input: decided on a subsample when that shows texture (nearly always), else
-        # on every pixel
+        # flat input: on a subsample where that shows texture (nearly always), else every pixel
         if not _has_texture(arr[:, ::7, ::7]) and not _has_texture(arr):
             msg = "frames hold no texture (flat, black or saturated); no waves to measure"
             raise ValueError(msg)
@@ -277,6 +276,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         yaw = 0.0 if yaw_rate_dps is None else yaw_rate_dps
         if yaw != 0.0:  # a yawing camera: every frame turned as the middle one
             arr = unturn_yaw(arr, yaw, fps)  # (which checks the rate)
+        camera_focal_px = focal_px  # the frames' own, which a pass turned back is given
         if binning > 1:  # to the working scale (``working_px``)
             arr, focal_px = bin_frames(arr, binning), focal_px / binning
         lattice = BLOCK_PERIOD_PX // binning  # a block coder's, in the binned frames
@@ -290,7 +290,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             # carried its own way, which one velocity does not fit.  The frames are turned
             # back at the rate measured and fitted from the start, as a levelling pass takes
             # out a tilt.
-            again = {"frames": frames, "fps": fps, "focal_px": focal_px,
+            again = {"frames": frames, "fps": fps, "focal_px": camera_focal_px,
                      "velocity_mps": velocity_mps, "velocity_sigma_mps": velocity_sigma_mps,
                      "binning": binning}
             res = self._estimate(**again, yaw_rate_dps=yaw + turn, yaw_pass=yaw_pass + 1)

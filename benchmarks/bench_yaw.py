@@ -112,7 +112,11 @@ SEAS = {"realistic": _realistic_sea, "second": _second_sea}
 
 
 def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
-                 mode: str, sea_name: str = "realistic") -> list[dict[str, Any]]:
+                 mode: str, sea_name: str = "realistic",
+                 working_px: int | None = None) -> list[dict[str, Any]]:
+    """The windows of sequence ``task = (seed, index)`` at each rate, told and untold;
+    ``working_px``: the altimeter's working scale (None: its default; 88 bins the 176-px
+    camera by 2, as frames twice the default scale are)."""
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
     seed, index = task
@@ -120,7 +124,8 @@ def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
     kw: dict[str, Any] = {"fps": truth["fps"], "focal_px": truth["focal_px"]}
     if mode == "exact":
         kw["velocity_mps"] = truth["velocity_mps"]
-    est = DispersionAltimeter(dispersion="gravity-capillary")
+    scale = {} if working_px is None else {"working_px": working_px}
+    est = DispersionAltimeter(dispersion="gravity-capillary", **scale)
     out = []
     for rate in (0.0, *rates):
         clip = np.clip(yawing_view(sea, rate, truth["fps"], CAMERA_PX), 0.0, 1.0)
@@ -269,8 +274,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap = sea_parser(__doc__, frames=10, mode="exact")
     ap.add_argument("--rates", default="10,30", help="yaw rates, deg/s, comma-separated")
     ap.add_argument("--plot", type=Path, help="a PNG of the rates measured and the errors")
+    ap.add_argument("--working-px", type=int, default=None,
+                    help=f"the altimeter's working scale (default its own); {CAMERA_PX // 2} "
+                         f"bins the {CAMERA_PX}-px camera by 2, as larger frames are")
     a = ap.parse_args(argv)
     a.rates = check_sea_args(ap, a, a.rates, "rates")
+    if a.working_px is not None and a.working_px < 0:
+        ap.error(f"--working-px must be >= 0; got {a.working_px}")
     if any(not (math.isfinite(r) and 0 < abs(r) <= 180) for r in a.rates):
         ap.error(f"--rates must be non-zero and within +-180 deg/s; got {a.rates}")
     return a
@@ -278,11 +288,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
-    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea)
+    job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea,
+                  working_px=a.working_px)
     rows, seconds = run_rows(a, job)
     summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),
                "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
+               "working_px": a.working_px,
                "by_rate": summarise(rows), "seconds": seconds}
     report(a, summary, rows)
     if a.plot is not None:

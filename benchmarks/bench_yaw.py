@@ -138,6 +138,7 @@ def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
                         "altitude_m": truth["altitude_m"], "estimate_m": res.altitude_m,
                         "std_m": res.altitude_std_m, "trusted": bool(res.trusted),
                         "reason": res.reason, "yaw_rate_dps": res.yaw_rate_dps,
+                        "signal": res.signal,
                         "ms": 1e3 * (time.perf_counter() - t0)})
     return out
 

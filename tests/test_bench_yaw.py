@@ -47,6 +47,7 @@ def test_the_yawing_view_turned_back_is_the_still_view() -> None:
     (("--mode", "prior"), "invalid choice: 'prior'"),
     (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
     (("--sea", "paper"), "invalid choice: 'paper'"),
+    (("--working-px", "-1"), "--working-px must be >= 0; got -1"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
@@ -75,6 +76,11 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
                                                           (10.0, "told")]
     assert all(r["altitude_m"] == sc.altitude_m for r in rows)
     assert rows[2]["yaw_rate_dps"] == 10.0  # told: the rate given, taken as the truth
+    assert not any("+binned" in r["signal"] for r in rows)
+    # at a working scale of half the camera, the windows are fitted binned by 2
+    binned = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second", working_px=88)
+    assert [r["rate_dps"] for r in binned] == [r["rate_dps"] for r in rows]
+    assert all("+binned2" in r["signal"] for r in binned)
 
 
 def test_plot_writes_a_png_of_a_run(tmp_path) -> None:

@@ -302,9 +302,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             return res
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:
-            # A rolling shutter: fitted again with every periodogram's row delays undone,
-            # each mode's phase step unwrapped at the first fit's Doppler line
-            # (:meth:`_rolled_share_table`); the caller's reset restores the context.
+            # A rolling shutter: fitted again, each row's delay undone and each mode's step
+            # unwrapped at the first fit's Doppler line (_rolled_share_table; caller resets)
             scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame
             ROLLING.set((rolling[0], tuple(v * scale for v in res.camera_velocity_mps)))
             res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
@@ -334,7 +333,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                 res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
                               f"clip (give its yaw rate)")
         shake = p.get("shake") if p is not None else None
-        res.shake_px = 0.0 if shake is None else float(np.sqrt(np.mean(shake**2)))
+        res.shake_px = (0.0 if shake is None  # in the frames' own px, not the binned ones
+                        else binning * float(np.sqrt(np.mean(shake**2))))
         if velocity_mps is not None and shake is not None:
             # The frames were steadied (:mod:`.jitter`): the camera rolled or pitched over the
             # clip, and the rotation's mean rate, which no steadying sees, moves the image

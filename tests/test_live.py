@@ -118,6 +118,24 @@ def test_the_default_live_window_is_one_second_of_the_streams_frames(tmp_path, f
     assert np.allclose([r for _, r in taken], fps, rtol=1e-3)
 
 
+def test_a_default_window_is_capped_for_a_stream_that_comes_too_fast(tmp_path) -> None:
+    """Frames stamped 2 ms apart (a source timed by its bursty arrivals looks so) make no
+    window longer than ``MAX_RATE_WINDOW`` frames, nor a buffer of thousands."""
+    from wavealt.live.stream import MAX_RATE_WINDOW
+
+    n = MAX_RATE_WINDOW + 60
+    _clip(tmp_path / "fast.mp4", frames=n, times_s=np.arange(n) * 0.002)
+    taken = []
+
+    def record(frames: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
+        taken.append(frames.shape[0])
+        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+    summary = run_live(str(tmp_path / "fast.mp4"), estimate=record, pace=False)
+    assert summary["window_frames"] == MAX_RATE_WINDOW and set(taken) <= {MAX_RATE_WINDOW}
+
+
 def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:
     sc, cfg = _clip(tmp_path / "long.mp4", frames=240)  # 8 s at its own pace
     out = tmp_path / "out"

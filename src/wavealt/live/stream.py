@@ -40,6 +40,10 @@ LATENCY_WINDOW = 10000
 RATE_PROBE_FRAMES = 8
 #: The reader's buffer while those frames come (before the window is known).
 PROBE_CAPACITY = 1024
+#: The most frames a window set by the stream's rate takes (one second at 240 fps, the
+#: fastest rate the benches run): a source without timestamps is timed by its arrivals, and
+#: a pipe that bursts must not make a window, and a buffer of four, of thousands of frames.
+MAX_RATE_WINDOW = 240
 
 
 @dataclass
@@ -159,10 +163,10 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
 
     ``window``: frames per estimate; None for one second of them at the rate of the stream's
     first ``RATE_PROBE_FRAMES`` frames (:func:`~wavealt.io.one_second_window`, as a recorded
-    clip's).  ``step``: new frames between estimates; None for a fifteenth of the window (at
-    most 15 estimates a second).  ``capacity``: the reader's buffer, frames (default four
-    windows).  The summary gives the ``window_frames`` and ``step_frames`` used (None where
-    the stream ended before its rate was known).
+    clip's; at most ``MAX_RATE_WINDOW``).  ``step``: new frames between estimates; None for
+    a fifteenth of the window (at most 15 estimates a second).  ``capacity``: the reader's
+    buffer, frames (default four windows).  The summary gives the ``window_frames`` and
+    ``step_frames`` used (None where the stream ended before its rate was known).
     """
     reader = FrameReader(source, capacity=capacity or 4 * (window or PROBE_CAPACITY // 4),
                          fmt=fmt, pace=pace)
@@ -203,7 +207,7 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
                 rate = (nominal_rate(np.array([it.time_s for it in items]))
                         if arrived >= RATE_PROBE_FRAMES else math.nan)
                 if math.isfinite(rate) and rate > 0:
-                    window = one_second_window(rate)
+                    window = min(one_second_window(rate), MAX_RATE_WINDOW)
                     with reader.lock:
                         reader.capacity = capacity or 4 * window
                 elif arrived >= RATE_PROBE_FRAMES:

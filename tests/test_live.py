@@ -136,6 +136,42 @@ def test_a_default_window_is_capped_for_a_stream_that_comes_too_fast(tmp_path) -
     assert summary["window_frames"] == MAX_RATE_WINDOW and set(taken) <= {MAX_RATE_WINDOW}
 
 
+def test_a_stream_without_timestamps_needs_its_rate(tmp_path) -> None:
+    """A raw H.264 stream carries no timestamps: timed as decoded, a file or pipe read faster
+    than real time would hand every window a wrong rate (the altitude goes as its inverse
+    square), so without ``fps`` it is a one-line error; with it, frame n is at n / fps."""
+    import av
+
+    if "libx264" not in av.codecs_available:
+        pytest.skip("this PyAV has no H.264 encoder to write the raw stream with")
+    from fractions import Fraction
+
+    frames = (np.random.default_rng(0).random((90, 64, 64, 3)) * 255).astype(np.uint8)
+    path = tmp_path / "raw.h264"
+    with av.open(str(path), mode="w", format="h264") as container:
+        stream = container.add_stream("libx264", rate=Fraction(60))
+        stream.width = stream.height = 64
+        stream.pix_fmt = "yuv420p"
+        for img in frames:
+            for packet in stream.encode(av.VideoFrame.from_ndarray(img, format="rgb24")):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    taken = []
+
+    def record(clip: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
+        taken.append((clip.shape[0], rate))
+        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+    with pytest.raises(ValueError, match="carry no timestamps, so their rate is not known"):
+        run_live(str(path), estimate=record, fmt="h264")
+    assert not taken
+    summary = run_live(str(path), estimate=record, fmt="h264", fps=60.0)
+    assert summary["window_frames"] == 60 and taken
+    assert np.allclose([r for _, r in taken], 60.0)
+
+
 def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:
     sc, cfg = _clip(tmp_path / "long.mp4", frames=240)  # 8 s at its own pace
     out = tmp_path / "out"
@@ -170,6 +206,7 @@ def test_sigterm_stops_cleanly_and_leaves_a_complete_log(tmp_path) -> None:
     (["--live", "x.mp4", "--focal-px", "200", "--velocity-from-vehicle"],
      "need --live and --mavlink"),
     (["--live", "x.mp4", "--focal-px", "200", "--duration", "-1"], "--duration must be"),
+    (["--live", "x.mp4", "--focal-px", "200", "--fps", "-3"], "--fps must be a positive"),
     (["--live", "x.mp4", "--focal-px", "200", "--camera-latency-ms", "30"],
      "goes with --tilt-from-vehicle"),
 ])

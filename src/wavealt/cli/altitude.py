@@ -50,7 +50,9 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "at its mean attitude]")
 @click.option("--fps", type=float, default=None,
               help="Frame rate of a frame folder, frames/s.  A video's own timestamps give its "
-                   "frame times; --fps that contradicts them is an error unless --force-fps.")
+                   "frame times; --fps that contradicts them is an error unless --force-fps.  "
+                   "With --live: the rate of a source whose frames carry no timestamps (a raw "
+                   "H.264 stream), which without it is an error.")
 @click.option("--force-fps", is_flag=True,
               help="Use --fps for a video, evenly spaced, instead of its timestamps.")
 @click.option("--frame-times", type=click.Path(path_type=Path), default=None, metavar="CSV",
@@ -196,7 +198,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                        latency_s=None if camera_latency_ms is None else camera_latency_ms / 1e3,
                        velocity_from_vehicle=velocity_from_vehicle,
                        tilt_from_vehicle=tilt_from_vehicle, as_json=as_json, out=out,
-                       force=force, mavlink=mavlink, mavlink_range=mavlink_range)
+                       force=force, mavlink=mavlink, mavlink_range=mavlink_range, fps=fps)
         return
     if dispersion == "auto":
         from wavealt.altimetry.relation import dispersion_of_input
@@ -272,7 +274,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
                    readout_s: float, yaw_rate_dps: float | None, latency_s: float | None,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
-                   out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
+                   out: Path | None, force: bool, mavlink: str | None, mavlink_range: str,
+                   fps: float | None = None) -> None:
     """``wavealt altitude --live``: :func:`wavealt.live.run_live` with the altimeter, the
     camera's levelling and the autopilot link."""
     import numpy as np
@@ -289,6 +292,9 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         raise ValueError(msg)
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         msg = f"--duration must be a positive number of seconds; got {duration!r}"
+        raise ValueError(msg)
+    if fps is not None and not (math.isfinite(fps) and fps > 0):
+        msg = f"--fps must be a positive number of frames/s; got {fps!r}"
         raise ValueError(msg)
     # window None: one second of the stream's frames; step None: 15 estimates/s at most
     if (window is not None and window < 3) or (step is not None and step < 1):
@@ -379,7 +385,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
             link.request_attitude_rate()
     try:
         summary = run_live(source, estimate=estimate, window=window, step=step, fmt=live_format,
-                           duration_s=duration,
+                           duration_s=duration, fps=fps,
                            log=out / LIVE_FILE if out is not None else None,
                            on_estimate=link.send_altitude if link is not None else None)
     finally:

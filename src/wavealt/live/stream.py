@@ -41,8 +41,8 @@ RATE_PROBE_FRAMES = 8
 #: The reader's buffer while those frames come (before the window is known).
 PROBE_CAPACITY = 1024
 #: The most frames a window set by the stream's rate takes (one second at 240 fps, the
-#: fastest rate the benches run): a source without timestamps is timed by its arrivals, and
-#: a pipe that bursts must not make a window, and a buffer of four, of thousands of frames.
+#: fastest rate the benches run): a source whose times jitter or burst must not make a
+#: window, and a buffer of four, of thousands of frames.
 MAX_RATE_WINDOW = 240
 
 
@@ -58,6 +58,7 @@ class _Buffered:
 class ReaderStats:
     frames: int = 0
     dropped: int = 0
+    untimed: int = 0  # frames without a timestamp and no rate given: timed as they came
     error: str | None = None
     finished: bool = False
     opened: threading.Event = field(default_factory=threading.Event)
@@ -68,13 +69,16 @@ class FrameReader(threading.Thread):
     buffer of ``capacity`` frames, RGB uint8 with their times in seconds.
 
     ``fmt`` is FFmpeg's input format (``v4l2`` for a camera device, ``mpegts`` or ``h264``
-    for a pipe); ``pace`` plays a file back at the rate of its timestamps.
+    for a pipe); ``pace`` plays a file back at the rate of its timestamps.  ``fps``: the
+    rate of a source whose frames carry no timestamps (a raw H.264 stream): its frame ``n``
+    is at ``n / fps`` s; without it such frames are timed as they are decoded, and counted
+    (``stats.untimed``).
     """
 
     def __init__(self, source: str, *, capacity: int, fmt: str | None = None,
-                 pace: bool | None = None) -> None:
+                 pace: bool | None = None, fps: float | None = None) -> None:
         super().__init__(name="wavealt-frame-reader", daemon=True)
-        self.source, self.fmt = source, fmt
+        self.source, self.fmt, self.fps = source, fmt, fps
         self.pace = Path(source).is_file() if pace is None else pace
         self.buffer: deque[_Buffered] = deque()
         self.capacity = int(capacity)
@@ -94,11 +98,13 @@ class FrameReader(threading.Thread):
                     return
                 self.stats.opened.set()
                 start = None
-                for frame in container.decode(video=0):
+                for n, frame in enumerate(container.decode(video=0)):
                     if self.stop_event.is_set():
                         break
                     now = time.monotonic()
-                    t = frame.time if frame.time is not None else now
+                    t = (frame.time if frame.time is not None
+                         else n / self.fps if self.fps else now)
+                    self.stats.untimed += frame.time is None and not self.fps
                     if self.pace:
                         start = (now - t) if start is None else start
                         delay = start + t - time.monotonic()
@@ -149,7 +155,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
              window: int | None = None, step: int | None = None, fmt: str | None = None,
              duration_s: float | None = None,
              log: Path | None = None, on_estimate: Callable[[dict[str, Any]], Any] | None = None,
-             pace: bool | None = None, capacity: int | None = None) -> dict[str, Any]:
+             pace: bool | None = None, capacity: int | None = None,
+             fps: float | None = None) -> dict[str, Any]:
     """Estimate the altitude from ``source`` until it ends, ``duration_s`` passes, or SIGINT /
     SIGTERM; return a summary.
 
@@ -166,10 +173,14 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     clip's; at most ``MAX_RATE_WINDOW``).  ``step``: new frames between estimates; None for
     a fifteenth of the window (at most 15 estimates a second).  ``capacity``: the reader's
     buffer, frames (default four windows).  The summary gives the ``window_frames`` and
-    ``step_frames`` used (None where the stream ended before its rate was known).
+    ``step_frames`` used (None where the stream ended before its rate was known).  ``fps``:
+    the rate of a source whose frames carry no timestamps; such a source without it is a
+    ``ValueError`` (timed by when its frames are decoded, a pipe that decodes faster than
+    real time would give every window a wrong rate, and the altitude goes as its inverse
+    square).
     """
     reader = FrameReader(source, capacity=capacity or 4 * (window or PROBE_CAPACITY // 4),
-                         fmt=fmt, pace=pace)
+                         fmt=fmt, pace=pace, fps=fps)
     stop = threading.Event()
     previous = {}
 
@@ -200,6 +211,10 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
         while not stop.is_set():
             if duration_s is not None and time.monotonic() - t_start >= duration_s:
                 break
+            if reader.stats.untimed:
+                msg = (f"{source}: its frames carry no timestamps, so their rate is not "
+                       f"known; give it (--fps)")
+                raise ValueError(msg)
             if window is None:  # one second of frames, at the rate the first ones came at
                 items, arrived = reader.snapshot(RATE_PROBE_FRAMES, RATE_PROBE_FRAMES, 0.5)
                 if reader.stats.error:

@@ -681,6 +681,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = {r.name: row_report(r, args.seeds, [x for x in recs if x["row"] == r.name])
             for r in args.rows}
     cores = os.cpu_count()
+    camera = sim_config("paper", 10, 0, 1, args.size, args.sensor)  # --fps, --fov-deg
     result = {
         "benchmark": "dispersion",
         "issue": "blind altimeter",
@@ -692,8 +693,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
             "realistic_camera": realistic_camera(args.sensor, args.size),
-            "fps": sim_config("paper", 10, 0, 1, args.size, args.sensor).fps,
-            "fov_deg": sim_config("paper", 10, 0, 1, args.size, args.sensor).fov_deg,
+            "fps": camera.fps, "fov_deg": camera.fov_deg,
             "frames": "each row generates its sequences with frames=F directly",
             "frames_as_stored": "uint8 when exact k/255 (realistic: lossless), else float16 "
                                 "(paper); the estimator sees them so, cache or not",

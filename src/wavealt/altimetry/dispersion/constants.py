@@ -12,8 +12,8 @@ SIGNALS = ("auto", "chroma", "luma")
 #: clips it was measured on.  Counted in frames, a 0.5-s clip at 60 fps took the 1-s clip's
 #: band alone (realistic preset, 40 sequences, blind; counted so instead): tuning seed 101,
 #: 15 of 80 windows trusted, up to 8.6 % off at z 2.8 (8, up to 5.8 %); held-out seeds 23 /
-#: 31, 26 of 160, one 11.6 % off at sigma 2.5 % (17, at most 3.3 % off).  The
-#: floor's ``FULL_CLIP_FRAMES`` stays a count of frames: counted in seconds, 10-frame exact
+#: 31, 26 of 160, one 11.6 % off at sigma 2.5 % (17, at most 3.3 % off).  The floor's
+#: ``FULL_CLIP_FRAMES`` stays a count of frames: counted in seconds, 10-frame exact
 #: clips at 60 fps were trusted in none of 320 windows instead of 17-62 % (none of those more
 #: than 4.5 % off), and the floor, which grades every candidate, chose worse ones (realistic
 #: preset, tuning seed 101, relative MAE clean / glinty 10.03 / 3.37 -> 22.93 / 9.24 %;
@@ -80,12 +80,12 @@ PAIRED_BAND_SD_FRACTION = 0.55
 #: Fewest frames of a clip (at ``REFERENCE_FPS``) on which the paired band's term is a whole
 #: standard deviation on its own: it then stands alone where it is the larger; on shorter
 #: clips it is the systematic term beside the groups' spread (their sum).  The fraction
-#: above was fitted to
-#: 30- and 15-frame windows pooled; apart, the 68th percentile of |log error| / half-width
-#: is 0.55-0.57 at 30 frames (tuning seeds 101/202 and 303/404, 638 windows with a peak) and
-#: 0.98 at 15 (101/202, 228): at 15 frames the band alone under-covers.  Held-out, the
-#: realistic prior row (10 frames, seed 23) and the 15-frame row on uncompressed frames
-#: (seed 31) each had a window read +10 to +12 % and trusted with the band alone.
+#: above was fitted to 30- and 15-frame windows pooled; apart, the 68th percentile of
+#: |log error| / half-width is 0.55-0.57 at 30 frames (tuning seeds 101/202 and 303/404, 638
+#: windows with a peak) and 0.98 at 15 (101/202, 228): at 15 frames the band alone
+#: under-covers.  Held-out, the realistic prior row (10 frames, seed 23) and the 15-frame row
+#: on uncompressed frames (seed 31) each had a window read +10 to +12 % and trusted with the
+#: band alone.
 BAND_CALIBRATED_MIN_FRAMES = 30
 #: On clips shorter than ``BAND_CALIBRATED_MIN_FRAMES`` the band's fraction grows as
 #: ``(BAND_CALIBRATED_MIN_FRAMES / T) ** BAND_SHORT_CLIP_POWER``: split by length, the 68th

@@ -229,12 +229,18 @@ def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:
 
     requests = []
 
-    def vehicle() -> None:  # answers each estimate the companion computer sends
+    def vehicle() -> None:
+        # streams its state at 4 Hz (fresh for the altimeter's 1 s, too seldom to level frame
+        # by frame) once it has heard the companion's first estimate, however long that took
+        heard, last = False, -math.inf
         while not stop.is_set():
             msg = autopilot.recv_match(blocking=True, timeout=0.05)
             if msg is not None and msg.get_type() == "COMMAND_LONG":
                 requests.append((msg.command, msg.param1, msg.param2))
             elif msg is not None:
+                heard = True
+            if heard and time.monotonic() - last >= 0.25:
+                last = time.monotonic()
                 autopilot.mav.local_position_ned_send(0, 0.0, 0.0, -3.0, 0.0, 0.0, 0.0)
                 autopilot.mav.attitude_send(0, 0.1, -0.05, 0.0, 0.0, 0.0, 0.1)
 

@@ -10,7 +10,8 @@ import pytest
 from contract import assert_honest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter
-from wavealt.altimetry.dispersion.constants import YAW_BANDS
+from wavealt.altimetry.dispersion.constants import YAW_BANDS, YAW_PASSES
+from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.yaw import significant_turn, tile_yaw
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -190,3 +191,43 @@ def test_a_binned_yawing_camera_turned_back_keeps_its_image_scale(sea) -> None:
     assert "+yaw" in binned.signal and "+binned2" in binned.signal, binned.signal
     assert abs(binned.altitude_m / 4.0 - 1.0) < 0.1, binned
     assert_honest(binned, 4.0)
+
+
+@pytest.fixture(scope="module")
+def sea30() -> tuple[np.ndarray, dict]:
+    cfg = preset_config("realistic", size=256, frames=30, altitude_m=(4.0, 4.0),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.4, 0.4))
+    sc = cfg.sample_scenario(3)
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
+    return generate_sequence(sc, cfg).clean.mean(axis=-1), kw
+
+
+def test_a_turn_whose_frames_turned_back_lose_the_shell_is_refuted(sea30) -> None:
+    """A still camera's frames turned back at a rate it did not turn (a second of 90
+    deg/s: +-45 degrees over the clip) hold no shell: the turn is refuted, and the fit of the
+    frames as they are is finished, kept and marked.  A turning camera's frames turned back
+    at its rate hold the shell: the turn stands and the still fit is not made."""
+    frames, kw = sea30
+    est = DispersionAltimeter()
+    made: list[DispersionResult] = []
+
+    def still(clip: np.ndarray):
+        def finish() -> DispersionResult:
+            made.append(est.estimate(clip, yaw_rate_dps=0.0, **kw))
+            return made[-1]
+        return finish
+
+    clip = _yawing(frames, 0.0, kw["fps"], 176)
+    again = {"frames": clip, "binning": 1, "velocity_sigma_mps": 0.0, **kw}
+    # the last pass: a pass at the rate the turned frames show would take the turn back
+    res = est._turn_back(again, 0.0, (90.0, 1.0), YAW_PASSES - 1, still(clip))
+    assert len(made) == 1 and res is made[0], res
+    assert "+turn-refuted" in res.signal and res.yaw_rate_dps == 0.0
+    assert_honest(res, 4.0)
+    assert abs(res.altitude_m / 4.0 - 1.0) < 0.03
+    made.clear()
+    turning = _yawing(frames, 15.0, kw["fps"], 176)
+    res = est._turn_back({**again, "frames": turning}, 0.0, (15.0, 0.5), 0, still(turning))
+    assert not made and "+yaw" in res.signal and "+turn-refuted" not in res.signal
+    assert res.yaw_rate_dps == pytest.approx(15.0, abs=3.0)
+    assert_honest(res, 4.0)

@@ -39,11 +39,13 @@ from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
+from wavealt.altimetry.dispersion.turn import _Turn
 from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
-class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Level):
+class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Level,
+                          _Turn):
     """Altitude, its uncertainty and the water's velocity from frames, by wave dispersion.
 
     Parameters
@@ -284,22 +286,21 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
         turned = self._measured_turn(p, signal, fps, True) if measure and p else None
         turn = None if turned is None else turned[0]
-        if (turn is not None and yaw_pass < YAW_PASSES
-                and abs(yaw + turn) <= MAX_YAW_RATE_DPS):
-            # The corner tiles show the camera turning about its axis: each sees the water
-            # carried its own way, which one velocity does not fit.  The frames are turned
-            # back at the rate measured and fitted from the start, as a levelling pass takes
-            # out a tilt.
-            again = {"frames": frames, "fps": fps, "focal_px": camera_focal_px,
-                     "velocity_mps": velocity_mps, "velocity_sigma_mps": velocity_sigma_mps,
-                     "binning": binning}
-            res = self._estimate(**again, yaw_rate_dps=yaw + turn, yaw_pass=yaw_pass + 1)
-            res.signal += "" if "+yaw" in res.signal else "+yaw"
-            off = res.yaw_rate_dps + turned[1]  # the rate one standard error further
-            if yaw_pass == 0 and res.trusted and abs(off) <= MAX_YAW_RATE_DPS:
-                res = self._rate_uncertain(res, self._estimate(**again, yaw_rate_dps=off,
-                                                               yaw_pass=YAW_PASSES))
-            return res
+
+        def finish() -> DispersionResult:
+            return self._finish(res, signal, p, arr, fps, focal_px, prior, lattice,
+                                measure=measure, turn=turn, yaw=yaw, binning=binning)
+        if turn is not None and yaw_pass < YAW_PASSES and abs(yaw + turn) <= MAX_YAW_RATE_DPS:
+            again = {"frames": frames, "fps": fps, "focal_px": camera_focal_px, "binning": binning,
+                     "velocity_mps": velocity_mps, "velocity_sigma_mps": velocity_sigma_mps}
+            return self._turn_back(again, yaw, turned, yaw_pass, finish)
+        return finish()
+
+    def _finish(self, res: DispersionResult, signal: np.ndarray, p: dict[str, Any] | None,
+                arr: np.ndarray, fps: float, focal_px: float, prior: Any, lattice: int, *,
+                measure: bool, turn: float | None, yaw: float, binning: int) -> DispersionResult:
+        """The fit ``res`` of ``signal`` (periodogram ``p``) of frames ``arr`` (turned back at
+        ``yaw``, binned ``binning``; ``turn``: the turn its tiles show) finished and judged."""
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:
             # A rolling shutter: fitted again, each row's delay undone and each mode's step
@@ -319,8 +320,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             if res.attitude_deg is None:
                 res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
                               or res.reason)
-        res.mode = ("blind" if velocity_mps is None
-                    else "prior" if velocity_sigma_mps > 0 else "exact")
+        res.mode = "blind" if prior is None else "prior" if prior[2] > 0 else "exact"
         if self._distrust(res) is None:
             res.reason = self._tile_verdict(fits, res)
         if self._distrust(res) is None and "+carried" not in res.signal:
@@ -335,7 +335,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         shake = p.get("shake") if p is not None else None
         res.shake_px = (0.0 if shake is None  # in the frames' own px, not the binned ones
                         else binning * float(np.sqrt(np.mean(shake**2))))
-        if velocity_mps is not None and shake is not None:
+        if prior is not None and shake is not None:
             # The frames were steadied (:mod:`.jitter`): the camera rolled or pitched over the
             # clip, and the rotation's mean rate, which no steadying sees, moves the image
             # as a velocity over the water would, which a velocity given does not hold (the

@@ -1,0 +1,52 @@
+"""A turn the corner tiles show, taken back: the frames turned at the rate measured and fitted
+again, and the turn refuted where the frames turned back lose the shell the frames as they
+are hold."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from wavealt.altimetry.dispersion.constants import YAW_PASSES
+from wavealt.altimetry.dispersion.result import DispersionResult
+from wavealt.altimetry.dispersion.spectra import ROLLING
+from wavealt.camera import MAX_YAW_RATE_DPS
+
+
+class _Turn:
+    """The yaw passes of :class:`DispersionAltimeter` (uses ``_estimate``, ``_holds_shell``,
+    ``_rate_uncertain``)."""
+
+    def _turn_back(self, again: dict[str, Any], yaw: float, turned: tuple[float, float],
+                   yaw_pass: int, still: Callable[[], DispersionResult]) -> DispersionResult:
+        """The fit of the frames ``again`` (``_estimate``'s arguments) turned back at the
+        rate ``yaw`` they were fitted at plus the turn their tiles show, ``turned = (rate,
+        its standard error)``, deg/s; ``still()`` finishes the fit at ``yaw``.
+
+        The corner tiles show the camera turning about its axis: each sees the water carried
+        its own way, which one velocity does not fit.  The frames are turned back at the
+        rate measured and fitted from the start, as a levelling pass takes out a tilt.
+        Where the frames turned back hold no shell's peak (significant and prominent:
+        :meth:`_holds_shell`) and the frames as they are do, the turn is refuted: the
+        tiles' phase steps also differ where the image moves unevenly for another reason
+        (a tilted camera carried over the water, the relief of the sea under a low camera),
+        and turning a still camera's frames back at such a rate smears the shell they
+        hold.  The fit at ``yaw`` is then finished and kept.  It is not trusted while its
+        tiles show the turn (its finish judges that), so the test decides the altitude
+        read, not the trust.
+        """
+        saved = ROLLING.get()  # a pass's rolling-shutter fit sets its own
+        res = self._estimate(**again, yaw_rate_dps=yaw + turned[0], yaw_pass=yaw_pass + 1)
+        res.signal += "" if "+yaw" in res.signal else "+yaw"
+        off = res.yaw_rate_dps + turned[1]  # the rate one standard error further
+        if yaw_pass == 0 and res.trusted and abs(off) <= MAX_YAW_RATE_DPS:
+            res = self._rate_uncertain(res, self._estimate(**again, yaw_rate_dps=off,
+                                                           yaw_pass=YAW_PASSES))
+        if self._holds_shell(res):
+            return res
+        ROLLING.set(saved)
+        kept = still()
+        if self._holds_shell(kept):
+            kept.signal += "+turn-refuted"
+            return kept
+        return res

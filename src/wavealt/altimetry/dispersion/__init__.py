@@ -95,14 +95,14 @@ toward the other side (nor any tilt where no tile holds them alone), and with th
 unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those
 tiles read: it is made of them.
 
-A camera that turns about its axis carries the water past each corner tile its own way.
-The difference of two tiles' phase steps on a mode holds the turn and nothing of the waves
+A camera that turns about its axis carries the water past each corner tile its own way.  The
+difference of two tiles' phase steps on a mode holds the turn and nothing of the waves
 (:mod:`.yaw`); where the tile pairs show a turn, the frames are turned back at it
 (:func:`wavealt.camera.unturn_yaw`) and fitted again, and a turn still shown is not
-trusted.  The tiles' phase steps also part where the image moves unevenly for another
-reason (a tilted camera carried over the water, the relief of the sea under a low camera):
-where the frames turned back hold no shell and the frames as they are do, the turn is
-refuted and the still fit kept (:mod:`.turn`).  A yaw rate given is taken as the truth.
+trusted.  The tiles' phase steps also part where the image moves unevenly over the frame
+without a turn (a shear): where the frames turned back hold no shell and the frames as they
+are hold one, more significant, the turn is refuted and the still fit kept (:mod:`.turn`).
+A yaw rate given is taken as the truth.
 
 A camera that rolls and pitches back and forth (no gimbal) moves the whole image by a
 shift that changes from frame to frame.  Every mode of a tile moves with it, so each

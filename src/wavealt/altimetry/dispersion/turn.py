@@ -25,15 +25,16 @@ class _Turn:
 
         The corner tiles show the camera turning about its axis: each sees the water carried
         its own way, which one velocity does not fit.  The frames are turned back at the
-        rate measured and fitted from the start, as a levelling pass takes out a tilt.
-        Where the frames turned back hold no shell's peak (significant and prominent:
-        :meth:`_holds_shell`) and the frames as they are do, the turn is refuted: the
-        tiles' phase steps also differ where the image moves unevenly for another reason
-        (a tilted camera carried over the water, the relief of the sea under a low camera),
-        and turning a still camera's frames back at such a rate smears the shell they
-        hold.  The fit at ``yaw`` is then finished and kept.  It is not trusted while its
-        tiles show the turn (its finish judges that), so the test decides the altitude
-        read, not the trust.
+        rate measured and fitted from the start, as a levelling pass takes out a tilt.  Where
+        the frames turned back hold no shell's peak (significant and prominent:
+        :meth:`_holds_shell`) and the frames as they are hold one and explain the waves
+        better (a higher significance against random phase steps), the turn is refuted:
+        the tiles' phase steps also part where the image moves unevenly over the frame
+        without a turn (a shear, one direction's velocity changing across the frame and the
+        other's not: still cameras of the realistic renderer, 2-8 deg/s), and turning a
+        still camera's frames back at such a rate smears the shell they hold.  The fit at
+        ``yaw`` is then finished and kept.  It is not trusted while its tiles show the turn
+        (its finish judges that), so the test decides the altitude read, not the trust.
         """
         saved = ROLLING.get()  # a pass's rolling-shutter fit sets its own
         res = self._estimate(**again, yaw_rate_dps=yaw + turned[0], yaw_pass=yaw_pass + 1)
@@ -46,7 +47,7 @@ class _Turn:
             return res
         ROLLING.set(saved)
         kept = still()
-        if self._holds_shell(kept):
+        if self._holds_shell(kept) and kept.significance > res.significance:
             kept.signal += "+turn-refuted"
             return kept
         return res

@@ -98,13 +98,19 @@ def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.nd
     return mod.yawing_view(frames, rate_dps, fps, side)
 
 
-@pytest.fixture(scope="module")
-def sea() -> tuple[np.ndarray, dict]:
-    cfg = preset_config("realistic", size=256, frames=10, altitude_m=(4.0, 4.0),
+def _sea(frames: int) -> tuple[np.ndarray, dict]:
+    """The realistic renderer's clean frames (grey) of a camera 4 m up drifting at 0.4 m/s,
+    and the altimeter's arguments for them (the camera's velocity given)."""
+    cfg = preset_config("realistic", size=256, frames=frames, altitude_m=(4.0, 4.0),
                         wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.4, 0.4))
     sc = cfg.sample_scenario(3)
     kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
     return generate_sequence(sc, cfg).clean.mean(axis=-1), kw
+
+
+@pytest.fixture(scope="module")
+def sea() -> tuple[np.ndarray, dict]:
+    return _sea(10)
 
 
 @pytest.mark.parametrize("rate", [-10.0, 5.0, 20.0])
@@ -195,11 +201,7 @@ def test_a_binned_yawing_camera_turned_back_keeps_its_image_scale(sea) -> None:
 
 @pytest.fixture(scope="module")
 def sea30() -> tuple[np.ndarray, dict]:
-    cfg = preset_config("realistic", size=256, frames=30, altitude_m=(4.0, 4.0),
-                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.4, 0.4))
-    sc = cfg.sample_scenario(3)
-    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px, "velocity_mps": sc.camera_velocity_mps}
-    return generate_sequence(sc, cfg).clean.mean(axis=-1), kw
+    return _sea(30)
 
 
 def test_a_turn_whose_frames_turned_back_lose_the_shell_is_refuted(sea30) -> None:

@@ -233,3 +233,23 @@ def test_a_turn_whose_frames_turned_back_lose_the_shell_is_refuted(sea30) -> Non
     assert not made and "+yaw" in res.signal and "+turn-refuted" not in res.signal
     assert res.yaw_rate_dps == pytest.approx(15.0, abs=3.0)
     assert_honest(res, 4.0)
+
+
+def test_a_refuted_turn_leaves_the_still_fit_untrusted_while_the_tiles_show_it(
+        sea30, monkeypatch) -> None:
+    """End to end: tiles that keep showing a turn the camera did not make (a 90 deg/s turn
+    injected into the tiles' measurement of a still camera) are refuted by the fit, whose
+    altitude is the still camera's; the result says so and is not trusted, since the turn
+    it leaves is not modelled."""
+    frames, kw = sea30
+    clip = _yawing(frames, 0.0, kw["fps"], 176)
+    est = DispersionAltimeter()
+    still = est.estimate(clip, **kw)
+    assert still.trusted and "+yaw" not in still.signal
+    monkeypatch.setattr(est, "_measured_turn",
+                        lambda p, signal, fps, with_sd=False: (90.0, 1.0) if with_sd else 90.0)
+    res = est.estimate(clip, **kw)
+    assert "+turn-refuted" in res.signal and res.yaw_rate_dps == 0.0, res.signal
+    assert not res.trusted and "turned +90.0 deg/s" in res.reason, res.reason
+    assert res.altitude_m == pytest.approx(still.altitude_m, rel=1e-9)
+    assert_honest(res, 4.0)

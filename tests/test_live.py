@@ -37,6 +37,12 @@ def _rows(path) -> list[dict]:
         return list(csv.DictReader(fh))
 
 
+def _untrusted() -> dict:
+    """A window's result as an estimator that records its calls returns it: untrusted."""
+    return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
+            "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+
+
 def test_live_playback_gives_the_estimates_of_the_recorded_file(tmp_path, run_cli) -> None:
     sc, cfg = _clip(tmp_path / "clip.mp4")
     common = ["--focal-px", str(cfg.focal_px), "--dispersion", "gravity", "--window", "10",
@@ -65,8 +71,7 @@ def test_a_slow_estimator_drops_the_oldest_frames_and_never_stalls_the_reader(tm
     def slow(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict:
         seen.append(frames.shape[0])
         time.sleep(0.25)  # far slower than 30 frames/s
-        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
-                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+        return _untrusted()
 
     t0 = time.monotonic()
     summary = run_live(str(tmp_path / "clip.mp4"), estimate=slow, window=5, step=1, capacity=8)
@@ -87,8 +92,7 @@ def test_windows_never_span_a_gap_in_the_frame_times(tmp_path) -> None:
 
     def record(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict:
         rates.append(fps)
-        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
-                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+        return _untrusted()
 
     # played at its own pace (1.4 s), so that the windows across the gap come up one by one
     # (unpaced, a busy machine may read the whole file before the first window is taken)
@@ -108,8 +112,7 @@ def test_the_default_live_window_is_one_second_of_the_streams_frames(tmp_path, f
 
     def record(frames: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
         taken.append((frames.shape[0], rate))
-        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
-                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+        return _untrusted()
 
     summary = run_live(str(tmp_path / "clip.mp4"), estimate=record)
     n = round(fps)
@@ -129,8 +132,7 @@ def test_a_default_window_is_capped_for_a_stream_that_comes_too_fast(tmp_path) -
 
     def record(frames: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
         taken.append(frames.shape[0])
-        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
-                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+        return _untrusted()
 
     summary = run_live(str(tmp_path / "fast.mp4"), estimate=record, pace=False)
     assert summary["window_frames"] == MAX_RATE_WINDOW and set(taken) <= {MAX_RATE_WINDOW}
@@ -161,8 +163,7 @@ def test_a_stream_without_timestamps_needs_its_rate(tmp_path) -> None:
 
     def record(clip: np.ndarray, rate: float, arrivals: np.ndarray) -> dict:
         taken.append((clip.shape[0], rate))
-        return {"altitude_m": 1.0, "altitude_std_m": 1.0, "camera_velocity_mps": (0.0, 0.0),
-                "trusted": False, "reason": "test", "quality": 0.0, "mode": "blind"}
+        return _untrusted()
 
     with pytest.raises(ValueError, match="carry no timestamps, so their rate is not known"):
         run_live(str(path), estimate=record, fmt="h264")

@@ -8,6 +8,7 @@ import csv
 import json
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -215,6 +216,30 @@ def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) 
     os.chdir(tmp_path)
     code, out, err = run_cli(["altitude", *argv])
     assert code == 2 and match in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"fps": 0}, "fps must be > 0; got 0"),
+    ({"fps": -30.0}, "fps must be > 0; got -30"),
+    ({"fps": math.nan}, "fps must be finite"),
+    ({"fps": "fast"}, "fps must be a number"),
+    ({"duration_s": 0.0}, "duration_s must be > 0"),
+    ({"window": 2}, "window must be a whole number >= 3; got 2"),
+    ({"window": 10.5}, "window must be a whole number >= 3; got 10.5"),
+    ({"step": 0}, "step must be a whole number >= 1; got 0"),
+    ({"capacity": True}, "capacity must be a whole number >= 1; got True"),
+])
+def test_run_live_refuses_bad_arguments_before_opening_the_source(tmp_path, kwargs,
+                                                                  match) -> None:
+    # the source exists and the log would be written: neither is touched
+    log = tmp_path / "live.csv"
+    log.write_text("kept\n")
+    calls = []
+    with pytest.raises(ValueError, match=re.escape(match)) as info:
+        run_live(str(tmp_path / "missing.mp4"), estimate=lambda *a: calls.append(a) or {},
+                 log=log, **kwargs)
+    assert "\n" not in str(info.value) and "missing.mp4" not in str(info.value)
+    assert log.read_text() == "kept\n" and not calls
 
 
 def test_the_vehicles_velocity_and_attitude_are_used(tmp_path, run_cli) -> None:

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from wavealt._checks import check_finite_number
 from wavealt.io import nominal_rate, one_second_window, regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
@@ -177,8 +178,19 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     the rate of a source whose frames carry no timestamps; such a source without it is a
     ``ValueError`` (timed by when its frames are decoded, a pipe that decodes faster than
     real time would give every window a wrong rate, and the altitude goes as its inverse
-    square).
+    square).  A rate or duration that is not a positive number, a window of fewer than 3
+    frames, or a step or capacity below 1 is a ``ValueError`` before the source is opened.
     """
+    if fps is not None:
+        fps = check_finite_number("fps", fps, low=0.0, low_open=True)
+    if duration_s is not None:
+        duration_s = check_finite_number("duration_s", duration_s, low=0.0, low_open=True)
+    for name, value, least in (("window", window, 3), ("step", step, 1),
+                               ("capacity", capacity, 1)):
+        whole = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+        if value is not None and (not whole or value < least):
+            msg = f"{name} must be a whole number >= {least}; got {value!r}"
+            raise ValueError(msg)
     reader = FrameReader(source, capacity=capacity or 4 * (window or PROBE_CAPACITY // 4),
                          fmt=fmt, pace=pace, fps=fps)
     stop = threading.Event()

@@ -11,6 +11,7 @@ import pytest
 
 from wavealt.altimetry.dispersion.attitude import (
     fit_tilt,
+    measures_tilt,
     tile_centres,
     unmeasured_tilt_var_log,
 )
@@ -165,3 +166,24 @@ def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:
     assert var == pytest.approx(0.0, abs=1e-15)
     one = unmeasured_tilt_var_log([(x0, y0, 0.0, 0.01)], focal, s)
     assert one == pytest.approx(2.25 * s**2 * (x0**2 + y0**2) / focal**2)
+
+
+def test_two_tiles_in_a_row_do_not_see_a_pitch_and_four_corners_see_any_tilt() -> None:
+    # the levelled view's check (levelling._Level._level): a pitch that one bottom tile made
+    # cannot be confirmed by the two top tiles agreeing, however precisely
+    prior = math.sin(math.radians(7.5))
+    f, d = 222.0, 75.0
+    row = [(-d, -d, 0.0, 0.01), (d, -d, 0.0, 0.01)]
+    assert not measures_tilt(row, f, prior, (0.0, -0.17))
+    assert measures_tilt(row, f, prior, (0.17, 0.0))  # a roll: along the row
+    assert measures_tilt(row, f, prior, (0.1, 0.1))  # half along it
+    corners = row + [(-d, d, 0.0, 0.05), (d, d, 0.0, 0.05)]
+    for direction in ((0.0, 1.0), (1.0, 0.0), (0.6, -0.8)):
+        assert measures_tilt(corners, f, prior, direction)
+        # a tilt's sense and size do not matter
+        assert measures_tilt(corners, f, prior, tuple(-3 * c for c in direction))
+    # tiles too imprecise to tell a tilt within the prior measure nothing; one tile nothing
+    loose = [(x, y, 0.0, 1.0) for x, y, _, _ in corners]
+    assert not measures_tilt(loose, f, prior, (0.0, 1.0))
+    assert not measures_tilt(row[:1], f, prior, (1.0, 0.0))
+    assert not measures_tilt(corners, f, prior, (0.0, 0.0))

@@ -203,6 +203,25 @@ def fit_tilt(fits: list[tuple[float, float, float, float]],
     return TiltFit(a, b, cov, chi2_level, chi2_tilt, 1.0 / sw, len(fits))
 
 
+def measures_tilt(fits: list[tuple[float, float, float, float]], focal_px: float,
+                  prior_sd: float, direction: tuple[float, float]) -> bool:
+    """Whether tiles ``fits`` (as for :func:`fit_tilt`) measure a tilt along ``direction``
+    (the normal's ``(a, b)`` parts; its sense and size do not matter) better than the prior
+    ``prior_sd`` knows it: the information ``2.25 sum w (u . (p - g))^2 / f^2`` along its
+    unit vector ``u`` exceeds ``1 / prior_sd^2`` (the criterion of
+    :func:`unmeasured_tilt_var_log`).  Two tiles in one row do not measure a tilt about the
+    frame's horizontal axis, however well they agree."""
+    norm = math.hypot(*direction)
+    if len(fits) < 2 or norm == 0.0:
+        return False
+    arr = np.asarray(fits, dtype=np.float64)
+    pos = arr[:, :2] / focal_px
+    w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
+    along = pos @ (np.asarray(direction, dtype=np.float64) / norm)
+    along -= float(w @ along) / float(w.sum())
+    return 2.25 * float(w @ along**2) * prior_sd**2 >= 1.0
+
+
 def roll_pitch(rot: np.ndarray) -> tuple[float, float]:
     """Roll and pitch, degrees, of :func:`wavealt.camera.tilt_rotation` whose sea normal
     (third row) is that of rotation ``rot``."""

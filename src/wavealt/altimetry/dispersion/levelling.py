@@ -8,10 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.altimetry.dispersion.attitude import fit_tilt, roll_pitch
+from wavealt.altimetry.dispersion.attitude import fit_tilt, measures_tilt, roll_pitch
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
+    ATTITUDE_PRIOR_SD_DEG,
     BLOCK_PERIOD_PX,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -44,15 +45,17 @@ class _Level:
         level view is ``f cos(tilt)``, and where the tiles are not placed and weighted
         symmetrically their mean moves with the tilt (:meth:`.attitude.TiltFit.extra_var_log`).
         The tilted model is kept only where the levelled view's tiles then read one scale
-        (at least two, their scatter within their noise at ``ATTITUDE_LEVEL``,
-        :func:`~.trust.tile_scatter`): a tilt that one tile's wrong peak made does not
+        (their scatter within their noise at ``ATTITUDE_LEVEL``,
+        :func:`~.trust.tile_scatter`) and are placed to see the tilt made (at least two,
+        measuring it along its direction better than the prior ``ATTITUDE_PRIOR_SD_DEG``,
+        :func:`.attitude.measures_tilt`): a tilt that one tile's wrong peak made does not
         level the frames, and those are judged as given (``docs/dispersion.md``).
         """
         from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
 
         h, w = arr.shape[1:3]
         given = res, fits, p, focal_px, signal
-        focal, rot, made = focal_px, np.eye(3), None
+        focal, rot, made, total = focal_px, np.eye(3), None, np.zeros(2)
         for _ in range(ATTITUDE_PASSES):
             step = fit_tilt(fits, focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
@@ -67,15 +70,19 @@ class _Level:
             if not self._holds_shell(new):
                 break
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
+            total += (step.a, step.b)
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
             fits = self._tile_fits(signal, res, fps, focal, p)
         if made is None:
             return res, fits, p, focal, signal
-        if len(fits) < 2 or tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0:
-            # the levelled view's tiles do not read one scale either: the tilt measured was
-            # not the frames' (one tile's peak off the shell, its sigma too small) and the
-            # frames are judged as given
+        prior_sd = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
+        if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
+                or not measures_tilt(fits, focal, prior_sd, tuple(total))):
+            # the levelled view's tiles do not read one scale either, or cannot see the tilt
+            # made (two in a row, a tilt across it): the tilt measured was not shown to be
+            # the frames' (one tile's peak off the shell, its sigma too small) and the frames
+            # are judged as given
             return given
         last = fit_tilt(fits, focal) or made
         theta = math.acos(min(float(rot[2, 2]), 1.0))

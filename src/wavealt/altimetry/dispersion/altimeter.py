@@ -169,7 +169,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         """Angular frequency (rad/s) of physical wavenumber ``k`` (rad/m), deep water."""
         if self.dispersion == "gravity":
             return np.sqrt(GRAVITY_MPS2 * k)
-        return np.sqrt(GRAVITY_MPS2 * k + SURFACE_TENSION_OVER_DENSITY * k**3)
+        return np.sqrt(k * (GRAVITY_MPS2 + SURFACE_TENSION_OVER_DENSITY * (k * k)))
 
     def _omega_and_dlog(self, kappa: np.ndarray, focal_px: float,
                         altitude_m: float) -> tuple[np.ndarray, np.ndarray]:

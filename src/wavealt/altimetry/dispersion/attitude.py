@@ -147,13 +147,9 @@ def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     if not fits:
         r2 = max((x * x + y * y for x, y in centres), default=0.0)
         return 2.25 * prior_sd**2 * r2 / focal_px**2
-    arr = np.asarray(fits, dtype=np.float64)
-    pos = arr[:, :2] / focal_px
-    w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
-    centre = w @ pos / float(w.sum())
-    d = pos - centre
-    info, vec = np.linalg.eigh(2.25 * (d * w[:, None]).T @ d)
-    free = vec[:, info * prior_sd**2 < 1.0]
+    info, centre = _tilt_information(fits, focal_px)
+    value, vec = np.linalg.eigh(info)
+    free = vec[:, value * prior_sd**2 < 1.0]
     part = free.T @ centre
     return 2.25 * prior_sd**2 * float(part @ part)
 
@@ -214,12 +210,21 @@ def measures_tilt(fits: list[tuple[float, float, float, float]], focal_px: float
     norm = math.hypot(*direction)
     if len(fits) < 2 or norm == 0.0:
         return False
+    u = np.asarray(direction, dtype=np.float64) / norm
+    return float(u @ _tilt_information(fits, focal_px)[0] @ u) * prior_sd**2 >= 1.0
+
+
+def _tilt_information(fits: list[tuple[float, float, float, float]], focal_px: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The information ``M = 2.25 sum w (p - g)(p - g)^T / f^2`` ``(2, 2)`` that tiles
+    ``fits`` (as for :func:`fit_tilt`; ``w = 1 / sd^2``) hold on a tilt's ``(a, b)``, and
+    their weighted centroid ``g / f``."""
     arr = np.asarray(fits, dtype=np.float64)
     pos = arr[:, :2] / focal_px
     w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
-    along = pos @ (np.asarray(direction, dtype=np.float64) / norm)
-    along -= float(w @ along) / float(w.sum())
-    return 2.25 * float(w @ along**2) * prior_sd**2 >= 1.0
+    centre = w @ pos / float(w.sum())
+    d = pos - centre
+    return 2.25 * (d * w[:, None]).T @ d, centre
 
 
 def roll_pitch(rot: np.ndarray) -> tuple[float, float]:

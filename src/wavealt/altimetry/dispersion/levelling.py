@@ -55,7 +55,7 @@ class _Level:
 
         h, w = arr.shape[1:3]
         given = res, fits, p, focal_px, signal
-        focal, rot, made, total = focal_px, np.eye(3), None, np.zeros(2)
+        focal, rot, made = focal_px, np.eye(3), None
         for _ in range(ATTITUDE_PASSES):
             step = fit_tilt(fits, focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
@@ -70,7 +70,6 @@ class _Level:
             if not self._holds_shell(new):
                 break
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
-            total += (step.a, step.b)
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
             fits = self._tile_fits(signal, res, fps, focal, p)
@@ -78,7 +77,7 @@ class _Level:
             return res, fits, p, focal, signal
         prior_sd = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
         if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
-                or not measures_tilt(fits, focal, prior_sd, tuple(total))):
+                or not measures_tilt(fits, focal, prior_sd, tuple(rot[2, :2]))):
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
             # made (two in a row, a tilt across it): the tilt measured was not shown to be
             # the frames' (one tile's peak off the shell, its sigma too small) and the frames

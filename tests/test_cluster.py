@@ -119,7 +119,7 @@ BASE = ["--sequences", "2", "--size", "40", "--frames", "3", "--no-figures"]
     (["--cluster", "local:2", "--workers", "2"], "drop --workers"),
     (["--format", "zip"], "'zip' is not one of 'folder', 'shards'"),
     (["--shard-size", "4"], "--shard-size is for --format shards"),
-    (["--format", "shards", "--shard-size", "0"], "--shard-size must be a positive integer"),
+    (["--format", "shards", "--shard-size", "0"], "--shard-size must be an integer >= 1"),
 ])
 def test_bad_cluster_and_format_input(tmp_path, run_cli, extra, match):
     _expect_one_line(run_cli, ["simulate", str(tmp_path / "x"), *BASE, *extra], match)

@@ -266,7 +266,7 @@ def test_achromatic_removes_persistent_white_glint():
 def test_methods_bad_input(method):
     good = np.zeros((4, 3, 3, 3), np.float32)
     cases = [
-        (good, {"window": 0}, "window must be >= 1"),
+        (good, {"window": 0}, "window must be an integer >= 1"),
         (good, {"window": 2.5}, "window must be an integer"),
         (good, {"window": True}, "window must be an integer"),
         (good[:1], {}, "at least 2 frames"),
@@ -370,7 +370,7 @@ def test_deglint_dataset_bad_input_writes_nothing(tmp_path, dataset):
     for c in ("residual", "tmf-min", "median"):
         shutil.rmtree(root / c, ignore_errors=True)
     before = (root / "dataset.json").read_text()
-    with pytest.raises(ValueError, match="window must be >= 1"):
+    with pytest.raises(ValueError, match="window must be an integer >= 1"):
         deglint_dataset(root, window=0, progress=False)
     # one sequence with frames of another size
     write_png(root / "glinty" / "seq_00002" / "frame_003.png", np.zeros((20, 32, 3), np.uint8))
@@ -394,7 +394,7 @@ def test_cli_deglint(dataset, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "percentile" in out and "| rank |" in out
     assert Dataset(dataset).info["conditions"]["percentile"]["window"] == 3
-    for argv, match in [(["--window", "0"], "window must be >= 1"),
+    for argv, match in [(["--window", "0"], "window must be an integer >= 1"),
                         (["--method", "bogus"], "method must be one of")]:
         with pytest.raises(SystemExit) as exc:
             main(["deglint", str(dataset), *argv])

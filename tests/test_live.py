@@ -224,10 +224,10 @@ def test_live_bad_arguments_are_one_line_errors(tmp_path, run_cli, argv, match) 
     ({"fps": math.nan}, "fps must be finite"),
     ({"fps": "fast"}, "fps must be a number"),
     ({"duration_s": 0.0}, "duration_s must be > 0"),
-    ({"window": 2}, "window must be a whole number >= 3; got 2"),
-    ({"window": 10.5}, "window must be a whole number >= 3; got 10.5"),
-    ({"step": 0}, "step must be a whole number >= 1; got 0"),
-    ({"capacity": True}, "capacity must be a whole number >= 1; got True"),
+    ({"window": 2}, "window must be an integer >= 3; got 2"),
+    ({"window": 10.5}, "window must be an integer >= 3; got 10.5"),
+    ({"step": 0}, "step must be an integer >= 1; got 0"),
+    ({"capacity": True}, "capacity must be an integer >= 1; got True"),
 ])
 def test_run_live_refuses_bad_arguments_before_opening_the_source(tmp_path, kwargs,
                                                                   match) -> None:

@@ -46,6 +46,23 @@ def check_finite_number(name: str, value: Any, *, low: float | None = None,
     return x
 
 
+def check_integer(name: str, value: Any, *, low: int | None = None,
+                  high: int | None = None) -> int:
+    """Check a scalar is a whole number (an int, or a finite float without a fraction; not a
+    bool) within ``[low, high]``; return it as int."""
+    whole = (not isinstance(value, (bool, np.bool_))
+             and isinstance(value, (int, float, np.integer, np.floating))
+             and math.isfinite(value) and float(value).is_integer())
+    if (not whole or (low is not None and value < low)
+            or (high is not None and value > high)):
+        bound = (f" in [{low}, {high}]" if low is not None and high is not None
+                 else f" >= {low}" if low is not None else f" <= {high}" if high is not None
+                 else "")
+        msg = f"{name} must be an integer{bound}; got {value!r}"
+        raise ValueError(msg)
+    return int(value)
+
+
 def check_frames(frames: Any, *, name: str = "frames", min_frames: int = 1,
                  allow_gray: bool = False, check_range: bool = True) -> np.ndarray:
     """Validate a frame sequence and return it as a NumPy array (no copy when possible).

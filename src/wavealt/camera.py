@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wavealt._checks import check_finite_number, read_number_columns
+from wavealt._checks import check_finite_number, check_integer, read_number_columns
 
 MAX_ALTITUDE_M = 15.0
 
@@ -52,10 +52,7 @@ class Camera:
 
     def __post_init__(self) -> None:
         for name in ("width_px", "height_px"):
-            v = getattr(self, name)
-            if int(v) != v or v < 1:
-                msg = f"{name} must be a positive integer; got {v!r}"
-                raise ValueError(msg)
+            check_integer(name, getattr(self, name), low=1)
         check_finite_number("focal_px", self.focal_px, low=0.0, low_open=True)
         check_finite_number("altitude_m", self.altitude_m, low=0.0, low_open=True,
                             high=MAX_ALTITUDE_M)

@@ -26,7 +26,7 @@ import numpy as np
 from natsort import natsorted
 from PIL import Image, UnidentifiedImageError
 
-from wavealt._checks import check_frames, read_number_columns
+from wavealt._checks import check_frames, check_integer, read_number_columns
 
 
 # -- atomic writes ------------------------------------------------------------------------
@@ -423,13 +423,8 @@ def sliding_windows(n_frames: int, *, window: int,
                     step: int | None = None) -> Iterator[tuple[int, int]]:
     """``(start, stop)`` frame ranges of length ``window`` every ``step`` (default half a
     window); a sequence no longer than ``window`` gives one range covering it all."""
-    if int(window) != window or window < 3:
-        msg = f"window must be an integer >= 3; got {window!r}"
-        raise ValueError(msg)
-    step = max(1, window // 2) if step is None else int(step)
-    if step < 1:
-        msg = f"step must be >= 1; got {step}"
-        raise ValueError(msg)
+    window = check_integer("window", window, low=3)
+    step = max(1, window // 2) if step is None else check_integer("step", step, low=1)
     if n_frames <= window:
         yield 0, n_frames
         return

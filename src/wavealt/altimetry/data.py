@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from wavealt._checks import check_known_keys
+from wavealt._checks import check_integer, check_known_keys
 from wavealt.altimetry.cnn import MIN_INPUT_PX, create_model
 
 #: ITU-R BT.601 luma weights, for the temporal variant's grayscale frames.
@@ -90,20 +90,16 @@ class TrainConfig:
         ints = {"epochs": 1, "batch_size": 1, "frames_per_sequence": 0, "num_workers": 0,
                 "threads": 0}
         for name, low in ints.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                msg = f"{name} must be an integer >= {low}; got {v!r}"
-                raise ValueError(msg)
+            object.__setattr__(self, name, check_integer(name, getattr(self, name), low=low))
         if not (isinstance(self.lr, (int, float)) and math.isfinite(self.lr) and self.lr > 0):
             msg = f"lr must be a positive number; got {self.lr!r}"
             raise ValueError(msg)
         if not (0.0 <= self.jitter < 1.0):
             msg = f"jitter must be in [0, 1); got {self.jitter!r}"
             raise ValueError(msg)
-        if self.crop_px is not None and (not isinstance(self.crop_px, int)
-                                         or self.crop_px < MIN_INPUT_PX):
-            msg = f"crop_px must be an integer >= {MIN_INPUT_PX}; got {self.crop_px!r}"
-            raise ValueError(msg)
+        if self.crop_px is not None:
+            object.__setattr__(self, "crop_px",
+                               check_integer("crop_px", self.crop_px, low=MIN_INPUT_PX))
         if self.loss not in ("mse", "l1"):
             msg = f"loss must be 'mse' or 'l1'; got {self.loss!r}"
             raise ValueError(msg)

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from wavealt._checks import check_integer
 from wavealt.dataset.folder import (
     BASE_CONDITIONS,
     Dataset,
@@ -77,9 +78,7 @@ def shard_location(root: Location, k: int) -> Location:
 
 def shard_storage(sequences: int, shard_size: int, save_surface: bool) -> dict[str, Any]:
     """The ``storage`` entry of a sharded dataset's ``dataset.json``."""
-    if isinstance(shard_size, bool) or int(shard_size) != shard_size or shard_size < 1:
-        msg = f"--shard-size must be a positive integer; got {shard_size!r}"
-        raise ValueError(msg)
+    check_integer("--shard-size", shard_size, low=1)
     return {"format": "shards", "shard_size": int(shard_size),
             "shards": shard_count(sequences, shard_size), "surface": bool(save_surface)}
 

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_frames
+from wavealt._checks import check_frames, check_integer
 
 DEFAULT_WINDOW = 10
 
@@ -32,13 +32,7 @@ DEFAULT_WINDOW = 10
 # -- validation -------------------------------------------------------------------------
 def _half_window(window: Any) -> int:
     """``h = w // 2`` of eq. (5) after checking ``window`` is an integer >= 1."""
-    if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
-        msg = f"window must be an integer number of frames >= 1; got {window!r}"
-        raise ValueError(msg)
-    if window < 1:
-        msg = f"window must be >= 1 frame; got {int(window)}"
-        raise ValueError(msg)
-    return int(window) // 2
+    return check_integer("window", window, low=1) // 2
 
 
 def _check_sequence(frames: Any) -> np.ndarray:

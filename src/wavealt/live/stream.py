@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_finite_number
+from wavealt._checks import check_finite_number, check_integer
 from wavealt.io import nominal_rate, one_second_window, regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
@@ -187,10 +187,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
         duration_s = check_finite_number("duration_s", duration_s, low=0.0, low_open=True)
     for name, value, least in (("window", window, 3), ("step", step, 1),
                                ("capacity", capacity, 1)):
-        whole = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-        if value is not None and (not whole or value < least):
-            msg = f"{name} must be a whole number >= {least}; got {value!r}"
-            raise ValueError(msg)
+        if value is not None:
+            check_integer(name, value, low=least)
     reader = FrameReader(source, capacity=capacity or 4 * (window or PROBE_CAPACITY // 4),
                          fmt=fmt, pace=pace, fps=fps)
     stop = threading.Event()

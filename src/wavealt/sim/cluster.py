@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
+from wavealt._checks import check_integer
+
 #: Seconds to wait for a scheduler to answer, and then for it to have a worker.
 CONNECT_TIMEOUT_S = 10.0
 _SCHEDULER = re.compile(r"(tcp|tls)://(\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):(\d{1,5})")
@@ -49,9 +51,7 @@ def runner_spec(*, workers: int = 1, cluster: str | None = None,
     """The runner of the command line's ``--workers N``, ``--cluster local:N`` or
     ``--scheduler tcp://HOST:PORT`` (at most one of them); a one-line ``ValueError`` naming
     the option when one is malformed."""
-    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
-        msg = f"workers must be a positive integer; got {workers!r}"
-        raise ValueError(msg)
+    workers = check_integer("workers", workers, low=1)
     if cluster is not None and scheduler is not None:
         msg = "give one of --cluster and --scheduler, not both"
         raise ValueError(msg)

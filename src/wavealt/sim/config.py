@@ -24,6 +24,7 @@ import numpy as np
 from wavealt._checks import (
     check_choice,
     check_finite_number,
+    check_integer,
     check_known_keys,
     check_rgb,
 )
@@ -183,12 +184,8 @@ class SensorModel:
         check_finite_number("target_grey", self.target_grey, low=0.0, high=1.0, low_open=True,
                             high_open=True)
         check_choice("compression", self.compression, COMPRESSIONS)
-        if int(self.jpeg_quality) != self.jpeg_quality or not 1 <= self.jpeg_quality <= 100:
-            msg = f"jpeg_quality must be an integer in [1, 100]; got {self.jpeg_quality!r}"
-            raise ValueError(msg)
-        if int(self.h264_crf) != self.h264_crf or not 0 <= self.h264_crf <= 51:
-            msg = f"h264_crf must be an integer in [0, 51]; got {self.h264_crf!r}"
-            raise ValueError(msg)
+        check_integer("jpeg_quality", self.jpeg_quality, low=1, high=100)
+        check_integer("h264_crf", self.h264_crf, low=0, high=51)
 
 
 #: The sub-configs by their name in SimConfig (and in dataset.json).
@@ -241,15 +238,9 @@ class SimConfig:
             if not isinstance(getattr(self, name), cls):
                 msg = f"{name} must be a {cls.__name__}; got {type(getattr(self, name)).__name__}"
                 raise ValueError(msg)
-        if int(self.sequences) != self.sequences or self.sequences < 1:
-            msg = f"sequences must be a positive integer; got {self.sequences!r}"
-            raise ValueError(msg)
-        if int(self.frames) != self.frames or self.frames < 2:
-            msg = f"frames must be an integer >= 2; got {self.frames!r}"
-            raise ValueError(msg)
-        if int(self.size) != self.size or self.size < MIN_SIZE_PX:
-            msg = f"size must be an integer >= {MIN_SIZE_PX} px; got {self.size!r}"
-            raise ValueError(msg)
+        check_integer("sequences", self.sequences, low=1)
+        check_integer("frames", self.frames, low=2)
+        check_integer("size", self.size, low=MIN_SIZE_PX)
         check_finite_number("fov_deg", self.fov_deg, low=0.0, high=180.0, low_open=True,
                             high_open=True)
         check_finite_number("fps", self.fps, low=0.0, low_open=True)

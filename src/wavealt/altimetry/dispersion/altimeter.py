@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from wavealt._checks import check_choice, check_finite_number, check_frames
+from wavealt._checks import check_choice, check_finite_number, check_frames, check_integer
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDES,
     BLIND_MAP_KAPPA,
@@ -135,11 +135,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         self.glint_r2 = check_finite_number("glint_r2", glint_r2, low=0.0, high=1.0)
         for name, v, least in (("working_px", working_px, 0), ("n_psi", n_psi, 16),
                                ("n_scan", n_scan, 8), ("n_groups", n_groups, 3)):
-            if v is None and name == "n_psi":
-                continue
-            if int(v) != v or v < least:
-                msg = f"{name} must be an integer >= {least}; got {v!r}"
-                raise ValueError(msg)
+            if v is not None or name != "n_psi":
+                check_integer(name, v, low=least)
         self.n_psi = None if n_psi is None else int(n_psi)
         self.working_px = int(working_px)
         self.n_scan, self.n_groups = int(n_scan), int(n_groups)
@@ -151,10 +148,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         self.dispersion = dispersion
         self.deglint = deglint
         self.clip_sigma = check_finite_number("clip_sigma", clip_sigma, low=0.0, low_open=True)
-        if int(max_modes) != max_modes or max_modes < 8:
-            msg = f"max_modes must be an integer >= 8; got {max_modes!r}"
-            raise ValueError(msg)
-        self.max_modes = int(max_modes)
+        self.max_modes = check_integer("max_modes", max_modes, low=8)
         self.min_kappa_bins = check_finite_number("min_kappa_bins", min_kappa_bins, low=1.0)
         self.max_kappa_frac = check_finite_number("max_kappa_frac", max_kappa_frac, low=0.0,
                                                   high=1.0, low_open=True)

@@ -972,8 +972,8 @@ def test_a_line_that_crosses_the_wave_shell_is_not_taken_for_a_carried_pattern()
 def test_foam_carried_by_the_water_is_removed_before_the_blind_fit(monkeypatch) -> None:
     """Foam-like patches ride with the water over an ideal camera's waves, ten times their
     contrast: the shell of a higher camera nears the foam's line of phase steps, and left
-    in, the foam draws the blind profile up to the top of the range.  Removed, the estimate
-    and the water's velocity are the waves'."""
+    in, the foam takes the blind profile's peak from the waves.  Removed, the estimate and
+    the water's velocity are the waves'."""
     from wavealt.altimetry.dispersion import altimeter
 
     h = 10.0
@@ -991,7 +991,10 @@ def test_foam_carried_by_the_water_is_removed_before_the_blind_fit(monkeypatch) 
     monkeypatch.setattr(altimeter, "CARRIED_CHECKED_MIN_RATIO", np.inf)
     left_in = est.estimate(frames, fps=30.0, focal_px=focal_px)
     assert not left_in.signal.endswith("+carried")
-    assert abs(left_in.altitude_m - h) / h > 0.2
+    # each tile's normal scores shrink the foam's contrast: left in, it no longer draws the
+    # profile to the top of the range (it did, +100 %, on the values as recorded), but the
+    # shell's peak is not prominent above the profile and the fit not trusted
+    assert res.trusted and not left_in.trusted
 
 
 def test_a_second_of_clip_removes_a_weaker_carried_pattern_that_the_waves_confirm(

@@ -17,9 +17,14 @@ The estimator tabulates, for every spatial mode of the frame's four corner tiles
 image is closest to linear in slope), the share of its temporal energy that one travelling
 wave explains as a function of the phase step per frame (a whitened, sharpened periodogram
 of the mode's complex amplitudes over the clip), and scores a candidate
-``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts.  Near nadir a
-camera also records the square of the slope, whose sum and difference products of wave
-pairs fill each mode's periodogram off its shell and pull a short clip's peak; each mode's
+``(altitude_m, u)`` by the mean share at the phase steps eq. (1) predicts.  Each tile's
+values are first replaced by the normal scores of their ranks (Gaussian anamorphosis,
+:func:`.signal.normal_scores`): the sky's radiance along its gradient, Fresnel's reflectance,
+the sensor's gamma and clipping record the waves' Gaussian slopes through monotone
+non-linear steps, whose harmonics and products lie off the shell, and the ranks undo any
+monotone step at once.  Near nadir a camera also records the square of the slope, whose sum and
+difference products of wave pairs fill each mode's periodogram off its shell and pull a
+short clip's peak (a square is not monotone: no ranks undo it); each mode's
 explained energy is taken less the products' expected share, predicted from the frames'
 own space-time covariance and skewness (:mod:`.continuum`).  A tile's window admits into
 each mode the waves of about a bin and a half around it, and on a sea whose spectrum falls
@@ -49,7 +54,9 @@ power-weighted centroid, not at its bin's centre (:mod:`.leakage`).  The searche
   higher camera approaches, lifting the profile toward the top of the range.  Where most
   modes carry such a pattern it is removed from the periodogram (each mode's
   least-squares component at that step) before the profile, and the result kept where
-  the waves' velocity confirms the pattern's.
+  the waves' velocity confirms the pattern's.  A floating pattern adds to the waves'
+  record, so it is sought and removed in the tiles' values as recorded (the ranks of a
+  sum would mix its parts).
 
 With a velocity *prior* (the camera's velocity known to within ``sigma``: a vehicle's
 navigation, the water's current unknown) exact fits at velocities spread over the prior

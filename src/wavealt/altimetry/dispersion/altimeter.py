@@ -252,8 +252,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         arr = check_frames(frames, min_frames=MIN_FRAMES, allow_gray=True)
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
-        velocity_sigma_mps = check_finite_number("velocity_sigma_mps", velocity_sigma_mps,
-                                                 low=0.0)
+        velocity_sigma_mps = check_finite_number("velocity_sigma_mps", velocity_sigma_mps, low=0.0)
         if velocity_mps is not None:
             if np.ndim(velocity_mps) != 1 or len(velocity_mps) != 2:
                 msg = f"velocity_mps must be two numbers (vx, vy); got {velocity_mps!r}"
@@ -379,10 +378,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     def _fit_signal(self, signal: np.ndarray, kind: str, fps: float, focal_px: float,
                     prior: tuple[float, float, float] | None
                     ) -> tuple[DispersionResult, dict[str, Any] | None]:
-        """Fit to one scalar ``(T, H, W)`` sequence of ``kind`` (``"luma"``/``"chroma"``),
-        the path taken recorded in the result's ``signal``, and the sequence's periodogram
-        (:meth:`_fit_periodogram`; None where none can be fitted), whose corner tiles'
-        mode series the tile check takes (:meth:`_tile_fits`)."""
+        """Fit to one scalar ``(T, H, W)`` sequence of ``kind`` (``"luma"``/``"chroma"``), the
+        path recorded in the result's ``signal``, and its periodogram (:meth:`_fit_periodogram`;
+        None where none can be fitted), whose tiles' series the tile check takes."""
         p = self._fit_periodogram(signal)
         res = self._fit_path(signal, p, fps, focal_px, prior)
         res.signal = f"{kind}/{res.signal or 'corners'}"
@@ -425,10 +423,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         if prior is None:
             return self._blind(p, signal, start, fps, focal_px)
         # A prior whose spread moves the altitude (a wide prior, a short clip): the blind
-        # search, the prior choosing among the profile's peaks, and a fit whose velocity
-        # lies outside the prior not trusted.  The exact fit at the prior's mean read
-        # 94-115 % / 79-106 % off (realistic preset, 10 frames, sigma 1 m/s, seeds 202, 23,
-        # 31): a current of up to 1 m/s moves the shell it assumes.
+        # search, the prior choosing among the profile's peaks, and a fit whose velocity lies
+        # outside the prior not trusted (a current moves the shell the prior's mean assumes).
         vx, vy, sigma = prior
         radius = PRIOR_SIGMAS * sigma
         res = self._blind(p, signal, start, fps, focal_px, (vx, vy, radius))
@@ -438,9 +434,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                           f"{PRIOR_SIGMAS:g} sigma")
         if self._distrust(res) is None:
             return res
-        # Neither fit is trusted: the one that says more.  A blind fit that leaves the
-        # prior's disk contradicts what the user knows; else the smaller uncertainty (a
-        # narrow prior keeps much of the exact fit's precision, a wide one spreads it).
+        # Neither fit trusted: the one that says more (a blind fit outside the prior's disk
+        # contradicts the user; else the smaller uncertainty: a narrow prior's is small).
         if off > radius or (spread.altitude_std_m / spread.altitude_m
                             < res.altitude_std_m / res.altitude_m):
             return spread
@@ -453,26 +448,31 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         ``signal``, from the phase-step ``start``, with the water's carried pattern removed
         where there is one.
 
-        Foam, and whatever else floats, rides with the water without dispersion: in the
-        periodogram it is a line of phase steps ``-kappa . u`` at the water's own velocity
-        ``u``, which the shell of a slower sea (a higher camera) approaches, so that the
-        profile rises toward the top of the range with no peak at the truth.  Where the
-        clip carries a pattern in most of its modes (:meth:`_carried_velocity`,
-        ``CARRIED_MIN_RATIO``), it is removed from the periodogram (:meth:`_periodogram`)
-        and the profile fitted again; the waves must then confirm that the pattern rode
-        with the water, the fit's velocity within ``CARRIED_MATCH_BINS`` of a low mode's
-        periodogram bin of the pattern's, else the fit with the pattern left in stands.
-        Where that match is fine enough to tell the water's velocity from a line that
-        crosses the shell (``CARRIED_CHECKED_MATCH_PX``: clips of about a second), it alone
-        decides, and a weaker pattern (``CARRIED_CHECKED_MIN_RATIO``) is tried too.
+        Foam, and whatever else floats, rides with the water without dispersion: in the periodogram
+        it is a line of phase steps ``-kappa . u`` at the water's own velocity ``u``, which the
+        shell of a slower sea (a higher camera) approaches: the profile rises toward the top of the
+        range with no peak at the truth.  Where the clip carries a pattern in most of its modes
+        (:meth:`_carried_velocity`, ``CARRIED_MIN_RATIO``), it is removed (:meth:`_periodogram`)
+        and the profile fitted again; the waves must then confirm that the pattern rode with the
+        water, the fit's velocity within ``CARRIED_MATCH_BINS`` of a low mode's periodogram bin of
+        the pattern's, else the fit with the pattern left in stands.  Where that match is fine
+        enough to tell the water's velocity from a line that crosses the shell
+        (``CARRIED_CHECKED_MATCH_PX``: clips of about a second), it alone decides, and a weaker
+        pattern (``CARRIED_CHECKED_MIN_RATIO``) is tried too.  A pattern the scored periodogram
+        shows is sought again, and removed, in the tiles' values as recorded (``scores=False``): it
+        adds to the waves' record, and the ranks of a sum mix its parts.
         """
         t = int(p["frames"])
         u_c, ratio = self._carried_velocity(p, fps, focal_px)
         match = CARRIED_MATCH_BINS * (2.0 * math.pi / t) / BLIND_MAP_KAPPA
         checked = match <= CARRIED_CHECKED_MATCH_PX
         bar = CARRIED_CHECKED_MIN_RATIO if checked else CARRIED_MIN_RATIO
+        raw = p
+        if ratio >= bar and p["scores"]:  # sought again, and removed, in the values recorded
+            raw = self._periodogram(signal, scores=False)
+            u_c, ratio = self._carried_velocity(raw, fps, focal_px)
         if ratio >= bar:
-            pc = self._periodogram(signal, corners=p["corners"], carried=u_c, like=p)
+            pc = self._periodogram(signal, raw["corners"], u_c, raw, scores=False)
             fit = self._fit_blind(pc, fps, focal_px, start["logh"], -start["u"], disk)
             if math.hypot(*(fit["u"] - u_c)) <= match and (fit["interior"] or not checked):
                 res = self._result(pc, fit, t, fps, focal_px)

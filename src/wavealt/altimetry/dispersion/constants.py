@@ -287,6 +287,10 @@ MAX_BIN = 8
 TUKEY_C_RAD = 0.6
 #: The standard deviation of normally distributed values per median absolute deviation.
 MAD_TO_SD = 1.4826
+#: Bins of a tile's value range whose ranks give its normal scores (:func:`.signal.normal_scores`):
+#: finer than 8-bit frames' levels (a tile's mean over three channels has at most 766), so
+#: that the ranks are those of the recorded values themselves.
+NORMAL_SCORE_LEVELS = 4096
 #: The aided altitude scan reaches past ``altitude_range_m`` (x1.5 below its low end, x4
 #: above its high end, same step) so that a peak near an end of the range has the fall on
 #: both of its sides measured: at high altitudes the shell's peak is broad (the waves move

@@ -247,3 +247,24 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
         rot = theta if rot is None else rot + theta
     return out, total, rot
 
+
+
+def remove_motion_seen(series: np.ndarray, seen: np.ndarray, kx: np.ndarray, ky: np.ndarray,
+                       centres: np.ndarray, min_ratio: float = JITTER_MIN_RATIO
+                       ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """:func:`remove_motion` of ``series`` by the motion read on ``seen``: the same tiles'
+    modes through another monotone map of their values (the values as recorded, where
+    ``series`` are their normal scores; a camera's rigid features, glints and the sky's
+    gradient among them, trace its shake most sharply as recorded).  The motion, shift and
+    rotation, is removed from ``series`` whole; returns as :func:`remove_motion` does."""
+    _, shift, rot = remove_motion(seen, kx, ky, centres, min_ratio)
+    if shift is None:
+        return series, None, None
+    moved = np.broadcast_to(shift[None], (series.shape[0], *shift.shape))
+    if rot is not None:
+        perp = _tangents(np.asarray(centres, dtype=np.float64))
+        moved = moved + rot[None, :, None] * perp[:, None, :]
+    phase = kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:]
+    out = series * _phasor(phase)
+    out -= out.mean(axis=1, keepdims=True)
+    return out, shift, rot

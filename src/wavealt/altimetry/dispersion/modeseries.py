@@ -1,11 +1,16 @@
-"""The corner tiles' mode series: those a periodogram already took, reused where they hold
-every mode another needs, and a carried pattern's component removed from them."""
+"""The corner tiles' mode series: the share of each one's energy that one travelling wave
+explains at each phase step, those a periodogram already took reused where they hold every
+mode another needs, and a carried pattern's component removed from them."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
+import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import STATIC_NORM_FRACTION
+from wavealt.altimetry.dispersion.continuum import explained_of_lags
 
 
 def remove_carried(g: np.ndarray, psi0: np.ndarray) -> None:
@@ -44,3 +49,62 @@ def modes_within(series: tuple[np.ndarray | None, np.ndarray | None] | None,
     if pos.size and (pos[-1] >= modes.size or not np.array_equal(modes[pos], idx)):
         return None, None
     return g, pos
+
+
+@functools.lru_cache(maxsize=8)
+def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
+    """The share table's matrix and norms for ``t`` frames and ``n_psi`` phase steps
+    ``psi_j = 2 pi j / n_psi`` (:meth:`~.spectra._Spectra._periodogram`): ``basis``
+    ``(2 n_psi, 2 t)`` float32, with ``[Re z; Im z] = basis @ [Re X; Im X]`` for
+    ``z_j = sum_t X_t e^{+i psi_j t}``, and ``D(psi_j)``; cached, read-only."""
+    psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
+    arg = np.outer(np.arange(t), psi)
+    cos, sin = np.cos(arg).T, np.sin(arg).T  # (n_psi, T)
+    basis = np.block([[cos, -sin], [sin, cos]]).astype(np.float32)
+    dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
+    denom = np.maximum(t - dirichlet / t, 1e-9)
+    basis.flags.writeable = False
+    denom.flags.writeable = False
+    return basis, denom
+
+
+def _explained(g: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``|z_j|^2`` summed over the parts, ``(modes, n_psi)`` float32, and each mode's energy
+    ``E = sum_t |X_t|^2`` summed over the parts (float64), of mean-free mode series ``g``
+    ``(parts, T, modes)`` complex64: ``z_j = sum_t X_t e^{+i psi_j t}`` at the table's steps
+    ``psi_j = 2 pi j / n_psi`` (``basis``: :func:`_share_basis`'s).
+
+    Where the work is small (one part, or a short clip: ``parts T n_psi <= 4096``), as one
+    real matrix product per part, ``[Re z; Im z] = basis @ [Re X; Im X]``, the squares
+    summed over the parts in order.  Else through the series' autocorrelation summed over
+    the parts, ``r_l = sum_t X_{t+l} conj(X_t)`` (``r_{-l} = conj(r_l)``):
+    ``|z(psi)|^2 = sum_l r_l e^{i psi l}``, a real trigonometric polynomial of degree
+    ``T - 1``, and ``E = r_0``; ``r`` is the inverse transform of the parts' power spectra
+    (zero-padded to at least ``2 T - 1``: no lag wraps), summed, and the table one real
+    inverse transform of ``r`` per mode (lags at or past half the table folded onto
+    theirs modulo ``n_psi``).  The same sums to float32 rounding; four 30-frame 96^2
+    tiles, 2598 modes: 3.8 ms on one core against 8.5 for the products (10 frames:
+    1.4 against 1.0; one 30-frame tile: about equal).
+    """
+    n_parts, t, m = g.shape
+    n_psi = basis.shape[0] // 2
+    if n_parts * t * n_psi <= 4096:
+        x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
+        energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
+        acc = np.matmul(basis, x[0])
+        acc *= acc
+        z = np.empty_like(acc) if n_parts > 1 else None
+        for part in x[1:]:  # one part's product at a time
+            np.matmul(basis, part, out=z)
+            np.multiply(z, z, out=z)
+            acc += z
+        return np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T), energy
+    f = scipy.fft.fft(np.ascontiguousarray(g.transpose(0, 2, 1)),
+                      n=1 << (2 * t - 2).bit_length(), axis=2, workers=1)
+    power = f.real ** 2
+    power += f.imag ** 2
+    r = scipy.fft.ifft(power.sum(axis=0), axis=1, workers=1)[:, :t]
+    energy = r[:, 0].real.astype(np.float64)
+    explained = explained_of_lags(r, n_psi)
+    np.maximum(explained, np.float32(0.0), out=explained)  # rounding below 0
+    return explained, energy

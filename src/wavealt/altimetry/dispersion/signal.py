@@ -3,10 +3,19 @@ from which white content (glint, saturation, foam) drops out."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from scipy.special import ndtri
 
 from wavealt._checks import check_choice
-from wavealt.altimetry.dispersion.constants import BLOCK_PERIOD_PX, DEGLINTS, MAD_TO_SD, MAX_BIN
+from wavealt.altimetry.dispersion.constants import (
+    BLOCK_PERIOD_PX,
+    DEGLINTS,
+    MAD_TO_SD,
+    MAX_BIN,
+    NORMAL_SCORE_LEVELS,
+)
 
 
 def _to_gray(frames: np.ndarray) -> np.ndarray:
@@ -104,6 +113,39 @@ def block_excess(signal: np.ndarray, period: int = BLOCK_PERIOD_PX) -> float:
             return 0.0
         excess.append((float(phase.max()) - mid) / mid)
     return min(excess)
+
+
+def normal_scores(part: np.ndarray, levels: int = NORMAL_SCORE_LEVELS) -> np.ndarray:
+    """``part``'s values mapped to the normal scores of their ranks, ``Phi^-1`` of each
+    value's mid-rank over the whole array (Gaussian anamorphosis), with the array's own
+    mean and standard deviation: a new float32 array whose values keep their order.
+
+    A camera records the sea through monotone non-linear steps (the sky's radiance along its
+    gradient, Fresnel's reflectance, the sensor's gamma, clipping); each turns the waves'
+    Gaussian slopes into a skewed record whose products lie off the dispersion shell.  The
+    ranks undo every monotone step at once.  They are the ranks of ``levels`` equal bins of
+    the value range (ties share their bin's mid-rank; the mean and spread are the bins').
+    An array of one value is returned as it is."""
+    x = np.asarray(part, dtype=np.float32)
+    lo, hi = float(x.min()), float(x.max())
+    if not hi > lo:
+        return x.copy()
+    scale = levels / (hi - lo)
+    idx = np.multiply(x, np.float32(scale)).astype(np.int32)
+    idx -= int(math.floor(lo * scale))
+    np.clip(idx, 0, levels - 1, out=idx)
+    count = np.bincount(idx.ravel(), minlength=levels)[:levels].astype(np.float64)
+    n = float(x.size)
+    used = count > 0
+    mid_rank = (np.cumsum(count) - 0.5 * count) / n
+    score = np.where(used, ndtri(np.clip(mid_rank, 0.5 / n, 1.0 - 0.5 / n)), 0.0)
+    centre = lo + (np.arange(levels) + 0.5) / scale
+    mean = float(count @ centre) / n
+    sd = math.sqrt(max(float(count @ (centre - mean) ** 2) / n, 0.0))
+    s_mean = float(count @ score) / n
+    s_sd = math.sqrt(max(float(count @ (score - s_mean) ** 2) / n, 1e-30))
+    table = (mean + (score - s_mean) * (sd / s_sd)).astype(np.float32)
+    return table[idx]
 
 
 def deglint(gray: np.ndarray, *, method: str = "clip", clip_sigma: float = 3.0,

@@ -19,9 +19,15 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_lags
-from wavealt.altimetry.dispersion.jitter import remove_motion
+from wavealt.altimetry.dispersion.jitter import remove_motion, remove_motion_seen
 from wavealt.altimetry.dispersion.leakage import centroid_shifts, mode_shifts, plane_powers
-from wavealt.altimetry.dispersion.modeseries import modes_within, remove_carried
+from wavealt.altimetry.dispersion.modeseries import (
+    _explained,
+    _share_basis,
+    modes_within,
+    remove_carried,
+)
+from wavealt.altimetry.dispersion.signal import normal_scores
 
 #: For the estimate in progress: None (a global shutter), or a rolling shutter's row delay
 #: (frames) and the image velocity (px/frame, the table's convention) of the first fit, whose
@@ -121,65 +127,6 @@ def _corners(arr: np.ndarray, frac: float = 0.5) -> list[np.ndarray]:
     return [arr[:, :h, :w], arr[:, :h, w0 - w:], arr[:, h0 - h:, :w], arr[:, h0 - h:, w0 - w:]]
 
 
-@functools.lru_cache(maxsize=8)
-def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
-    """The share table's matrix and norms for ``t`` frames and ``n_psi`` phase steps
-    ``psi_j = 2 pi j / n_psi`` (:meth:`_Spectra._periodogram`): ``basis`` ``(2 n_psi, 2 t)``
-    float32, with ``[Re z; Im z] = basis @ [Re X; Im X]`` for
-    ``z_j = sum_t X_t e^{+i psi_j t}``, and ``D(psi_j)``; cached, read-only."""
-    psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
-    arg = np.outer(np.arange(t), psi)
-    cos, sin = np.cos(arg).T, np.sin(arg).T  # (n_psi, T)
-    basis = np.block([[cos, -sin], [sin, cos]]).astype(np.float32)
-    dirichlet = np.abs(np.exp(1j * np.outer(psi, np.arange(t))).sum(axis=1)) ** 2
-    denom = np.maximum(t - dirichlet / t, 1e-9)
-    basis.flags.writeable = False
-    denom.flags.writeable = False
-    return basis, denom
-
-
-def _explained(g: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``|z_j|^2`` summed over the parts, ``(modes, n_psi)`` float32, and each mode's energy
-    ``E = sum_t |X_t|^2`` summed over the parts (float64), of mean-free mode series ``g``
-    ``(parts, T, modes)`` complex64: ``z_j = sum_t X_t e^{+i psi_j t}`` at the table's steps
-    ``psi_j = 2 pi j / n_psi`` (``basis``: :func:`_share_basis`'s).
-
-    Where the work is small (one part, or a short clip: ``parts T n_psi <= 4096``), as one
-    real matrix product per part, ``[Re z; Im z] = basis @ [Re X; Im X]``, the squares
-    summed over the parts in order.  Else through the series' autocorrelation summed over
-    the parts, ``r_l = sum_t X_{t+l} conj(X_t)`` (``r_{-l} = conj(r_l)``):
-    ``|z(psi)|^2 = sum_l r_l e^{i psi l}``, a real trigonometric polynomial of degree
-    ``T - 1``, and ``E = r_0``; ``r`` is the inverse transform of the parts' power spectra
-    (zero-padded to at least ``2 T - 1``: no lag wraps), summed, and the table one real
-    inverse transform of ``r`` per mode (lags at or past half the table folded onto
-    theirs modulo ``n_psi``).  The same sums to float32 rounding; four 30-frame 96^2
-    tiles, 2598 modes: 3.8 ms on one core against 8.5 for the products (10 frames:
-    1.4 against 1.0; one 30-frame tile: about equal).
-    """
-    n_parts, t, m = g.shape
-    n_psi = basis.shape[0] // 2
-    if n_parts * t * n_psi <= 4096:
-        x = np.concatenate([g.real, g.imag], axis=1)  # (parts, 2T, modes)
-        energy = np.einsum("ptm,ptm->m", x, x).astype(np.float64)
-        acc = np.matmul(basis, x[0])
-        acc *= acc
-        z = np.empty_like(acc) if n_parts > 1 else None
-        for part in x[1:]:  # one part's product at a time
-            np.matmul(basis, part, out=z)
-            np.multiply(z, z, out=z)
-            acc += z
-        return np.ascontiguousarray((acc[:n_psi] + acc[n_psi:]).T), energy
-    f = scipy.fft.fft(np.ascontiguousarray(g.transpose(0, 2, 1)),
-                      n=1 << (2 * t - 2).bit_length(), axis=2, workers=1)
-    power = f.real ** 2
-    power += f.imag ** 2
-    r = scipy.fft.ifft(power.sum(axis=0), axis=1, workers=1)[:, :t]
-    energy = r[:, 0].real.astype(np.float64)
-    explained = explained_of_lags(r, n_psi)
-    np.maximum(explained, np.float32(0.0), out=explained)  # rounding below 0
-    return explained, energy
-
-
 def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     """``q ** exponent``, by repeated multiplication when the exponent is a small integer."""
     e = float(exponent)
@@ -204,7 +151,7 @@ class _Spectra:
             # linear part is the slope times the view tilt, which changes sign across the
             # image centre; an odd modulation smears each mode over its neighbours (biasing
             # toward the stronger, slower low wavenumbers).  Quadrant tiles see one sign.
-            parts = _corners(gray)
+            parts = [normal_scores(part) for part in _corners(gray)]
             h, w = parts[0].shape[1:]
         else:
             h, w = h0, w0
@@ -260,7 +207,8 @@ class _Spectra:
     def _periodogram(self, signal: np.ndarray, corners: bool = True,
                      carried: np.ndarray | None = None,
                      like: dict[str, Any] | None = None,
-                     max_modes: int | None = None, continuum: bool = True) -> dict[str, Any]:
+                     max_modes: int | None = None, continuum: bool = True,
+                     scores: bool = True) -> dict[str, Any]:
         """Per spatial mode, the share of its temporal energy one travelling wave explains,
         tabulated over the phase step per frame.
 
@@ -279,11 +227,8 @@ class _Spectra:
         squared: sum and difference products of wave pairs, off the dispersion shell.
         Toward the edges the term linear in slope (slope times view tilt) dominates, and a
         tile within one corner sees that tilt with one sign (across the centre it changes
-        sign, an odd modulation that smears every mode over its neighbours).  Paper
-        renderer, 10 frames, aided, 100 scenes each of seeds 5, 7 and 11 (frames stored as
-        float16), relative MAE with the whole frame plus its quadrants -> with corner tiles
-        of 0.4: clean 1.49 / 0.77 / 1.08 -> 0.96 / 0.50 / 0.85 %, glinty 3.10 / 1.19 / 1.46
-        -> 1.66 / 1.01 / 1.37 %.
+        sign, an odd modulation that smears every mode over its neighbours; measured in
+        ``docs/dispersion.md``, "The corner tiles").
 
         ``carried``: the image velocity (px/frame, the table's convention) of a pattern that
         the water carries without dispersion (foam); its content is removed first
@@ -293,36 +238,42 @@ class _Spectra:
         again, where they hold every mode this one needs.  ``max_modes``: at most this many
         modes (default ``self.max_modes``).  ``p["shake"]``: the image shift per frame
         that a shaking camera gave the corner tiles and that was removed (:mod:`.jitter`),
-        None where none was.
+        None where none was.  ``scores``: each corner tile's values are taken as the normal
+        scores of their ranks (:func:`.signal.normal_scores`; the camera's monotone
+        non-linear steps undone); False, as recorded (``p["scores"]`` says which).
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
         basis, denom = _share_basis(t, n_psi)
         corners = corners and _fast_len(int(self.corner_tiles * min(h, w))) >= 32
-        parts = _corners(signal, self.corner_tiles) if corners else [signal]
+        recorded = _corners(signal, self.corner_tiles) if corners else [signal]
+        parts = [normal_scores(part) for part in recorded] if corners and scores else recorded
         series = None
-        if like is not None and like["corners"] == corners and like["frames"] == t:
+        if (like is not None and like["corners"] == corners and like["frames"] == t
+                and like.get("scores", scores) == scores):
             series = tuple(like.get(k) for k in ("_series", "_series_modes", "_continuum",
                                                  "_shift", "_power"))
         limit = self.max_modes if max_modes is None else max_modes
         centres = (np.array(tile_centres(signal.shape[1:], parts[0].shape[1:])) if corners
                    else None)
         tab = self._share_table(parts, basis, denom, limit, carried, series,
-                                like and like.get("shake"), centres, continuum)
+                                like and like.get("shake"), centres, continuum,
+                                recorded if parts is not recorded else None)
         # each mode at its waves' centroid (:mod:`.leakage`); the velocity map keeps the bins
         cx, cy = tab.kx + tab.table_shift[0], tab.ky + tab.table_shift[1]
         return {"q": tab.q, "kx": cx, "ky": cy, "kappa": np.hypot(cx, cy), "frames": t,
-                "corners": corners, "_bins": (tab.kx, tab.ky, tab.kappa),
-                "tile": parts[0].shape[1:], "carried": carried, "_series": tab.series,
-                "_series_modes": tab.modes, "shake": tab.shake, "_continuum": tab.continuum,
-                "_shift": tab.shift, "_powers": tab.powers}
+                "corners": corners, "scores": scores and corners, "carried": carried,
+                "_bins": (tab.kx, tab.ky, tab.kappa), "tile": parts[0].shape[1:],
+                "_series": tab.series, "_series_modes": tab.modes, "shake": tab.shake,
+                "_continuum": tab.continuum, "_shift": tab.shift, "_powers": tab.powers}
 
     def _share_table(self, parts: list[np.ndarray], basis: np.ndarray, denom: np.ndarray,
                      limit: int, carried: np.ndarray | None = None,
                      series: tuple[Any, ...] | None = None,
                      shaken: np.ndarray | None = None,
                      centres: np.ndarray | None = None,
-                     continuum: bool = True) -> _Table:
+                     continuum: bool = True,
+                     recorded: list[np.ndarray] | None = None) -> _Table:
         """Sharpened explained-share table (:meth:`_periodogram`) of at most ``limit`` modes
         of equal-sized ``parts`` ``(T, h, w)``, explained and total energy summed over the
         parts, with what it kept (:class:`_Table`; the series, their modes, lags and shifts
@@ -337,7 +288,8 @@ class _Spectra:
         other parts) of a clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first:
         the image shift they share, a shaking camera's, is removed
         (:func:`.jitter.remove_motion`; ``shake``: None for none; for ``series`` given,
-        ``shaken``, theirs)."""
+        ``shaken``, theirs); read on ``recorded`` where given (the parts' values as
+        recorded, where ``parts`` are their normal scores: :func:`.jitter.remove_motion_seen`)."""
         t, h, w = parts[0].shape
         kx, ky, kappa, _, idx = self._plane(h, w, limit)
         rolling = ROLLING.get()
@@ -367,7 +319,12 @@ class _Spectra:
             if centres is not None and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, with a rotation
                 # about the centre where they show one, removed (:mod:`.jitter`)
-                g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
+                if recorded is None:
+                    g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
+                else:
+                    seen = _windowed_modes(recorded, idx)
+                    seen -= seen.mean(axis=1, keepdims=True)
+                    g, shake, _ = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))

@@ -39,6 +39,7 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, significance
+from wavealt.altimetry.dispersion.signal import normal_scores
 from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners, _windowed_modes
 from wavealt.altimetry.dispersion.yaw import significant_turn
 
@@ -296,8 +297,7 @@ class _Trust:
         series the tiles take where they hold the tile's modes, instead of transforming the
         tiles again (the same bits)."""
         t = signal.shape[0]
-        # the tiles are searched within TILE_RANGE_FACTOR of the fit's altitude, on as fine a
-        # grid as the whole range's
+        # searched within TILE_RANGE_FACTOR of the fit's altitude, as finely as the whole range
         lo, hi = self.altitude_range_m
         near = copy.copy(self)
         near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
@@ -320,10 +320,10 @@ class _Trust:
                     else {"corners": False, "frames": t, "_series": series[i:i + 1],
                           "_series_modes": p["_series_modes"],
                           "_power": None if p.get("_powers") is None else p["_powers"][i]})
-            # a quarter of the modes: the tile holds a quarter of the corners' data; its
-            # table keeps the optics' square (``continuum=False``), as the bars of the
-            # tile tests were set on (``docs/dispersion.md``, twenty-seventh session)
-            q = self._fit_periodogram(tile, corners=False, like=like, continuum=False,
+            # a quarter of the modes (a quarter of the corners' data); the square kept in the
+            # table (``docs/dispersion.md``, twenty-seventh session); scored as the corners
+            q = self._fit_periodogram(tile if like else normal_scores(tile), corners=False,
+                                      like=like, continuum=False,
                                       max_modes=max(self.max_modes // 4, 8))
             if q is None:
                 continue

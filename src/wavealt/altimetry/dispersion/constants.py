@@ -1,5 +1,7 @@
 """Choices and tuning constants of the dispersion altimeter, with where the values come from."""
 
+import math
+
 DISPERSIONS = ("gravity", "gravity-capillary")
 DEGLINTS = ("none", "clip", "median")
 TILES = ("quadrants", "full")
@@ -232,6 +234,9 @@ ATTITUDE_PASSES = 3
 #: degrees, velocity known, 10 frames) had 7 of 160 windows trusted 14-36 % high, each
 #: with one or two tiles holding the waves, on one side.
 ATTITUDE_PRIOR_SD_DEG = 7.5
+#: The same prior as the standard deviation of a tilt's ``(a, b)`` (the sea normal's parts
+#: in the camera's frame, each the sine of the tilt along its axis).
+ATTITUDE_PRIOR_SD = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
 #: What the altimeter assumes of the camera's attitude: ``"estimate"`` measures a tilt from
 #: the corner tiles' scales and levels the frames at it; ``"level"`` takes the frames as
 #: those of a camera looking straight down.

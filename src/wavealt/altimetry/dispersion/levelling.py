@@ -12,7 +12,7 @@ from wavealt.altimetry.dispersion.attitude import fit_tilt, measures_tilt, roll_
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
-    ATTITUDE_PRIOR_SD_DEG,
+    ATTITUDE_PRIOR_SD,
     BLOCK_PERIOD_PX,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -75,9 +75,8 @@ class _Level:
             fits = self._tile_fits(signal, res, fps, focal, p)
         if made is None:
             return res, fits, p, focal, signal
-        prior_sd = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
         if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
-                or not measures_tilt(fits, focal, prior_sd, tuple(rot[2, :2]))):
+                or not measures_tilt(fits, focal, ATTITUDE_PRIOR_SD, tuple(rot[2, :2]))):
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
             # made (two in a row, a tilt across it): the tilt measured was not shown to be
             # the frames' (one tile's peak off the shell, its sigma too small) and the frames

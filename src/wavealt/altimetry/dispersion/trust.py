@@ -15,7 +15,7 @@ from wavealt.altimetry.dispersion.attitude import (
     unmeasured_tilt_var_log,
 )
 from wavealt.altimetry.dispersion.constants import (
-    ATTITUDE_PRIOR_SD_DEG,
+    ATTITUDE_PRIOR_SD,
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
     BLIND_SD_FLOOR_LOG,
@@ -408,8 +408,7 @@ class _Trust:
         from the one corner whose sea glittered)."""
         # the corner tiles' places (:meth:`_tile_fits` cuts them so)
         tile = _corner_shape(*shape, self.corner_tiles or 0.4)
-        var = unmeasured_tilt_var_log(fits, focal_px,
-                                      math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG)),
+        var = unmeasured_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD,
                                       tile_centres(shape, tile))
         if var <= 0.0:
             return None

@@ -175,11 +175,22 @@ def _remove_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, min_ratio:
                                else _shakes(out, kx, ky))
         if not np.all(np.isfinite(shake)) or (total is None and not ratio >= min_ratio):
             break  # no shake the tiles agree on (later passes refine the one found)
-        phase = kx[None, :] * shake[:, :1] + ky[None, :] * shake[:, 1:]  # (T, modes)
-        out = out * _phasor(phase)[None]
-        out -= out.mean(axis=1, keepdims=True)
+        out = _unmove(out, kx, ky, shake)
         total = shake if total is None else total + shake
     return out, total
+
+
+def _unmove(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, shift: np.ndarray,
+            theta: np.ndarray | None = None, perp: np.ndarray | None = None) -> np.ndarray:
+    """Tiles' mode series ``series`` ``(tiles, T, modes)`` with a motion taken out, mean-free
+    again (a new array): the image shift ``shift`` ``(T, 2)`` px they share, and where given
+    a rotation ``theta`` ``(T,)`` rad about the centre, which moves tile ``i`` by
+    ``theta perp[i]`` (:func:`_tangents`)."""
+    moved = shift[None] if theta is None else shift[None] + theta[None, :, None] * perp[:, None, :]
+    phase = kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:]
+    out = series * _phasor(phase)
+    out -= out.mean(axis=1, keepdims=True)
+    return out
 
 
 def _tangents(centres: np.ndarray) -> np.ndarray:
@@ -239,14 +250,10 @@ def remove_motion(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, centres: n
         if (not (np.all(np.isfinite(shift)) and np.all(np.isfinite(theta)))
                 or (total is None and not ratio >= min_ratio)):
             break
-        moved = shift[None] + theta[None, :, None] * perp[:, None, :]  # (tiles, T, 2)
-        phase = (kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:])
-        out = out * _phasor(phase)
-        out -= out.mean(axis=1, keepdims=True)
+        out = _unmove(out, kx, ky, shift, theta, perp)
         total = shift if total is None else total + shift
         rot = theta if rot is None else rot + theta
     return out, total, rot
-
 
 
 def remove_motion_seen(series: np.ndarray, seen: np.ndarray, kx: np.ndarray, ky: np.ndarray,
@@ -260,11 +267,5 @@ def remove_motion_seen(series: np.ndarray, seen: np.ndarray, kx: np.ndarray, ky:
     _, shift, rot = remove_motion(seen, kx, ky, centres, min_ratio)
     if shift is None:
         return series, None, None
-    moved = np.broadcast_to(shift[None], (series.shape[0], *shift.shape))
-    if rot is not None:
-        perp = _tangents(np.asarray(centres, dtype=np.float64))
-        moved = moved + rot[None, :, None] * perp[:, None, :]
-    phase = kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:]
-    out = series * _phasor(phase)
-    out -= out.mean(axis=1, keepdims=True)
-    return out, shift, rot
+    perp = None if rot is None else _tangents(np.asarray(centres, dtype=np.float64))
+    return _unmove(series, kx, ky, shift, rot, perp), shift, rot

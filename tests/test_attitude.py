@@ -10,12 +10,14 @@ import numpy as np
 import pytest
 
 from wavealt.altimetry.dispersion.attitude import (
+    cochran_q,
     fit_tilt,
     measures_tilt,
     tile_centres,
     unmeasured_tilt_var_log,
+    without_odd_tile,
 )
-from wavealt.altimetry.dispersion.constants import ATTITUDE_LEVEL
+from wavealt.altimetry.dispersion.constants import ATTITUDE_LEVEL, TILE_SCATTER_LEVEL
 from wavealt.altimetry.dispersion.spectra import _corners
 from wavealt.camera import tilt_rotation
 
@@ -187,3 +189,67 @@ def test_two_tiles_in_a_row_do_not_see_a_pitch_and_four_corners_see_any_tilt() -
     assert not measures_tilt(loose, f, prior, (0.0, 1.0))
     assert not measures_tilt(row[:1], f, prior, (1.0, 0.0))
     assert not measures_tilt(corners, f, prior, (0.0, 0.0))
+
+
+def test_cochran_q_is_the_weighted_squares_about_the_weighted_mean() -> None:
+    q, mean, sw = cochran_q([(0.0, 0.1), (0.3, 0.1), (0.3, 0.05)])
+    assert sw == pytest.approx(100.0 + 100.0 + 400.0)
+    assert mean == pytest.approx((0.0 * 100 + 0.3 * 100 + 0.3 * 400) / 600.0)
+    assert q == pytest.approx(100 * mean**2 + 100 * (0.3 - mean) ** 2 + 400 * (0.3 - mean) ** 2)
+    assert cochran_q([(1.2, 0.02)] * 3)[0] == pytest.approx(0.0, abs=1e-18)
+
+
+@pytest.mark.parametrize("odd", range(4))
+@pytest.mark.parametrize("factor", [0.5, 0.7, 1.4])
+def test_a_level_cameras_tile_off_the_shell_is_set_aside(odd, factor) -> None:
+    """Three corners that read one scale and a fourth that reads another (a wrong peak: the
+    optics' sum products read 0.5-0.8 of the altitude) fit neither a level nor a tilted
+    camera: the fourth is set aside and the three are kept, in their order."""
+    centres = tile_centres((256, 256), (100, 100))
+    rng = np.random.default_rng(odd)
+    fits = [(x, y, math.log(6.0 * (factor if i == odd else 1.0)) + 0.01 * rng.standard_normal(),
+             0.03) for i, (x, y) in enumerate(centres)]
+    kept = without_odd_tile(fits, 268.5, TILE_SCATTER_LEVEL)
+    assert kept == fits[:odd] + fits[odd + 1:]
+
+
+@pytest.mark.parametrize("roll, pitch", [(10.0, 0.0), (-6.0, 9.0), (12.0, 12.0)])
+def test_a_tilted_cameras_tiles_are_all_kept(roll, pitch) -> None:
+    """A tilt parts the four tiles' scales far beyond their noise, but the tilted model fits
+    them, and no three of them read one scale: none is set aside, with one tile off the tilt's
+    scale as well (a tilted camera's tiles are judged as they are)."""
+    focal, height = 268.5, 7.0
+    centres = tile_centres((256, 256), (100, 100))
+    rot = tilt_rotation(roll, pitch)
+    true = [math.log(_sea_scale(x, y, focal, rot, height)) for x, y in centres]
+    rng = np.random.default_rng(3)
+    fits = [(x, y, lh + 0.01 * rng.standard_normal(), 0.02) for (x, y), lh in zip(centres, true)]
+    assert cochran_q([f[2:] for f in fits])[0] > 50.0  # the tiles differ
+    assert without_odd_tile(fits, focal, TILE_SCATTER_LEVEL) == fits
+    off = fits[:2] + [(*fits[2][:2], fits[2][2] + math.log(0.7), fits[2][3])] + fits[3:]
+    assert without_odd_tile(off, focal, TILE_SCATTER_LEVEL) == off
+
+
+def test_tiles_that_agree_or_are_too_few_are_kept() -> None:
+    centres = tile_centres((256, 256), (100, 100))
+    agree = [(x, y, math.log(4.0) + d, 0.03) for (x, y), d in zip(centres, (0.01, -0.02, 0.0,
+                                                                            0.02))]
+    assert without_odd_tile(agree, 268.5, TILE_SCATTER_LEVEL) == agree
+    three = [(x, y, math.log(4.0 * f), 0.02) for (x, y), f in zip(centres, (1.0, 1.0, 0.6))]
+    assert without_odd_tile(three, 268.5, TILE_SCATTER_LEVEL) == three
+    # an odd tile too imprecise to stand off the others' mean is kept
+    vague = agree[:3] + [(*agree[3][:2], math.log(4.0 * 0.8), 0.2)]
+    assert without_odd_tile(vague, 268.5, TILE_SCATTER_LEVEL) == vague
+
+
+def test_a_level_cameras_odd_tile_makes_a_tilt_that_without_it_is_gone() -> None:
+    """What the levelling measures (:meth:`~.levelling._Level._level`): with the odd tile,
+    four tiles of a level camera show a significant tilt of many degrees; without it, none."""
+    centres = tile_centres((256, 256), (100, 100))
+    fits = [(x, y, math.log(9.0 * f), s) for (x, y), f, s in
+            zip(centres, (1.0, 1.01, 0.7, 0.99), (0.02, 0.02, 0.04, 0.03))]
+    false = fit_tilt(fits, 268.5)
+    assert false.significant(ATTITUDE_LEVEL) and false.tilt_deg > 5.0
+    kept = without_odd_tile(fits, 268.5, TILE_SCATTER_LEVEL)
+    assert len(kept) == 3
+    assert not fit_tilt(kept, 268.5).significant(ATTITUDE_LEVEL)

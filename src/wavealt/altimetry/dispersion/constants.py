@@ -209,7 +209,8 @@ TILE_AGREEMENT_SIGMAS = 3.0
 #: two trusted windows more than 10 % off (+12.9, +23.6 %), whose tile pairs differed by
 #: 2.2 sigma at most, are no longer trusted; the same scenes level and with the attitude
 #: known keep their trusted share (0.55-0.72).  Always adding tau (no test) cost the level
-#: scenes 2-4 points of trusted share for the same effect.
+#: scenes 2-4 points of trusted share for the same effect.  The same level sets aside a tile
+#: that neither a level nor a tilted camera explains (:func:`.attitude.without_odd_tile`).
 TILE_SCATTER_LEVEL = 0.1
 #: Test level at which the corner tiles' altitudes show a tilt (:mod:`.attitude`: the fall
 #: of their chi-square from the level model to the tilted one, two degrees of freedom);

@@ -8,12 +8,18 @@ from typing import Any
 
 import numpy as np
 
-from wavealt.altimetry.dispersion.attitude import fit_tilt, measures_tilt, roll_pitch
+from wavealt.altimetry.dispersion.attitude import (
+    fit_tilt,
+    measures_tilt,
+    roll_pitch,
+    without_odd_tile,
+)
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
     ATTITUDE_PRIOR_SD,
     BLOCK_PERIOD_PX,
+    TILE_SCATTER_LEVEL,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.trust import tile_scatter
@@ -41,9 +47,11 @@ class _Level:
         of a pinhole centred on the frame) and fitted again, and the levelled view's own
         tiles measure what tilt is left, up to ``ATTITUDE_PASSES`` times.  A levelled fit
         that holds no shell's peak, or a tilt beyond ``camera.MAX_TILT_DEG``, ends the
-        passes.  The tilt's uncertainty joins the levelled fit's: the focal length of the
-        level view is ``f cos(tilt)``, and where the tiles are not placed and weighted
-        symmetrically their mean moves with the tilt (:meth:`.attitude.TiltFit.extra_var_log`).
+        passes.  A tile that no attitude explains measures no tilt
+        (:func:`.attitude.without_odd_tile`).  The tilt's uncertainty joins the levelled
+        fit's: the focal length of the level view is ``f cos(tilt)``, and where the tiles
+        are not placed and weighted symmetrically their mean moves with the tilt
+        (:meth:`.attitude.TiltFit.extra_var_log`).
         The tilted model is kept only where the levelled view's tiles then read one scale
         (their scatter within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`) and are placed to see the tilt made (at least two,
@@ -57,7 +65,8 @@ class _Level:
         given = res, fits, p, focal_px, signal
         focal, rot, made = focal_px, np.eye(3), None
         for _ in range(ATTITUDE_PASSES):
-            step = fit_tilt(fits, focal)
+            # a tile that no attitude explains measures no tilt (its peak is not the shell)
+            step = fit_tilt(without_odd_tile(fits, focal, TILE_SCATTER_LEVEL), focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
                     or not step.fits(ATTITUDE_LEVEL) or step.tilt_deg > MAX_TILT_DEG):
                 break

@@ -11,6 +11,7 @@ import numpy as np
 
 from wavealt.altimetry.dispersion.attitude import (
     chi2_quantile,
+    cochran_q,
     tile_centres,
     unmeasured_tilt_var_log,
 )
@@ -489,11 +490,9 @@ def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LE
     """
     if len(fits) < 2:
         return 0.0
-    x = np.array([a for a, _ in fits])
-    w = 1.0 / np.maximum(np.array([s for _, s in fits]), 1e-6) ** 2
-    sw = float(w.sum())
-    q = float(np.sum(w * (x - float(np.sum(w * x)) / sw) ** 2))
+    q, _, sw = cochran_q(fits)
     dof = len(fits) - 1
     if q <= chi2_quantile(dof, level):
         return 0.0
+    w = 1.0 / np.maximum(np.array([s for _, s in fits]), 1e-6) ** 2
     return math.sqrt((q - dof) / (sw - float(np.sum(w * w)) / sw))

@@ -441,12 +441,12 @@ def test_explained_energy_is_the_direct_sum_on_either_route(parts: int, t: int,
     sums ``|sum_t X_t e^{+i psi_j t}|^2`` and ``sum_t |X_t|^2``, whether taken as matrix
     products (little work) or through the autocorrelation (lags folded where the clip is
     longer than half the table)."""
-    from wavealt.altimetry.dispersion.spectra import _explained, _share_basis
+    from wavealt.altimetry.dispersion.modeseries import explained_energy, share_basis
 
     rng = np.random.default_rng(parts * 1000 + t)
     g = (rng.normal(size=(parts, t, 37)) + 1j * rng.normal(size=(parts, t, 37)))
     g = (g - g.mean(axis=1, keepdims=True)).astype(np.complex64)
-    explained, energy = _explained(g, _share_basis(t, n_psi)[0])
+    explained, energy = explained_energy(g, share_basis(t, n_psi)[0])
     psi = 2.0 * np.pi * np.arange(n_psi) / n_psi
     z = np.einsum("ptm,tj->pmj", g.astype(np.complex128),
                   np.exp(1j * np.outer(np.arange(t), psi)))

@@ -52,7 +52,7 @@ def modes_within(series: tuple[np.ndarray | None, np.ndarray | None] | None,
 
 
 @functools.lru_cache(maxsize=8)
-def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
+def share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
     """The share table's matrix and norms for ``t`` frames and ``n_psi`` phase steps
     ``psi_j = 2 pi j / n_psi`` (:meth:`~.spectra._Spectra._periodogram`): ``basis``
     ``(2 n_psi, 2 t)`` float32, with ``[Re z; Im z] = basis @ [Re X; Im X]`` for
@@ -68,11 +68,11 @@ def _share_basis(t: int, n_psi: int) -> tuple[np.ndarray, np.ndarray]:
     return basis, denom
 
 
-def _explained(g: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def explained_energy(g: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``|z_j|^2`` summed over the parts, ``(modes, n_psi)`` float32, and each mode's energy
     ``E = sum_t |X_t|^2`` summed over the parts (float64), of mean-free mode series ``g``
     ``(parts, T, modes)`` complex64: ``z_j = sum_t X_t e^{+i psi_j t}`` at the table's steps
-    ``psi_j = 2 pi j / n_psi`` (``basis``: :func:`_share_basis`'s).
+    ``psi_j = 2 pi j / n_psi`` (``basis``: :func:`share_basis`'s).
 
     Where the work is small (one part, or a short clip: ``parts T n_psi <= 4096``), as one
     real matrix product per part, ``[Re z; Im z] = basis @ [Re X; Im X]``, the squares

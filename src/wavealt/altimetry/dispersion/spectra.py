@@ -22,10 +22,10 @@ from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_
 from wavealt.altimetry.dispersion.jitter import remove_motion, remove_motion_seen
 from wavealt.altimetry.dispersion.leakage import centroid_shifts, mode_shifts, plane_powers
 from wavealt.altimetry.dispersion.modeseries import (
-    _explained,
-    _share_basis,
+    explained_energy,
     modes_within,
     remove_carried,
+    share_basis,
 )
 from wavealt.altimetry.dispersion.signal import normal_scores
 
@@ -244,7 +244,7 @@ class _Spectra:
         """
         t, h, w = signal.shape
         n_psi = self.n_psi or max(64, 1 << math.ceil(math.log2(6.4 * t)))
-        basis, denom = _share_basis(t, n_psi)
+        basis, denom = share_basis(t, n_psi)
         corners = corners and _fast_len(int(self.corner_tiles * min(h, w))) >= 32
         recorded = _corners(signal, self.corner_tiles) if corners else [signal]
         parts = [normal_scores(part) for part in recorded] if corners and scores else recorded
@@ -328,7 +328,7 @@ class _Spectra:
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))
-        explained, energy = _explained(g, basis)
+        explained, energy = explained_energy(g, basis)
         if continuum:
             if cont is None:
                 cont = continuum_lags(parts, idx, _hann2d(h, w), planes)

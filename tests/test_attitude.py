@@ -192,8 +192,8 @@ def test_two_tiles_in_a_row_do_not_see_a_pitch_and_four_corners_see_any_tilt() -
 
 
 def test_cochran_q_is_the_weighted_squares_about_the_weighted_mean() -> None:
-    q, mean, sw = cochran_q([(0.0, 0.1), (0.3, 0.1), (0.3, 0.05)])
-    assert sw == pytest.approx(100.0 + 100.0 + 400.0)
+    q, mean, w = cochran_q([(0.0, 0.1), (0.3, 0.1), (0.3, 0.05)])
+    assert w == pytest.approx([100.0, 100.0, 400.0])
     assert mean == pytest.approx((0.0 * 100 + 0.3 * 100 + 0.3 * 400) / 600.0)
     assert q == pytest.approx(100 * mean**2 + 100 * (0.3 - mean) ** 2 + 400 * (0.3 - mean) ** 2)
     assert cochran_q([(1.2, 0.02)] * 3)[0] == pytest.approx(0.0, abs=1e-18)

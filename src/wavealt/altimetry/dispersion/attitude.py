@@ -113,22 +113,22 @@ def chi2_quantile(dof: int, level: float) -> float:
     return 2.0 * float(gammainccinv(0.5 * dof, level))
 
 
-def cochran_q(fits: list[tuple[float, float]]) -> tuple[float, float, float]:
+def cochran_q(fits: list[tuple[float, float]]) -> tuple[float, float, np.ndarray]:
     """Cochran's ``Q = sum w (x - xbar)^2`` of estimates ``fits`` (each ``(value, sd)``,
-    ``w = 1 / sd^2``), their weighted mean ``xbar`` and the sum of the weights: chi-square
-    with ``len(fits) - 1`` degrees of freedom where the estimates share one value."""
+    ``w = 1 / sd^2``), their weighted mean ``xbar`` and the weights ``w``: ``Q`` is
+    chi-square with ``len(fits) - 1`` degrees of freedom where the estimates share one
+    value."""
     x = np.array([a for a, _ in fits], dtype=np.float64)
     w = 1.0 / np.maximum(np.array([s for _, s in fits], dtype=np.float64), 1e-6) ** 2
-    sw = float(w.sum())
-    mean = float(np.sum(w * x)) / sw
-    return float(np.sum(w * (x - mean) ** 2)), mean, sw
+    mean = float(np.sum(w * x)) / float(w.sum())
+    return float(np.sum(w * (x - mean) ** 2)), mean, w
 
 
 def without_odd_tile(fits: list[tuple[float, float, float, float]], focal_px: float,
                      level: float) -> list[tuple[float, float, float, float]]:
     """Tiles ``fits`` (as for :func:`fit_tilt`) less the one whose altitude no camera
     attitude gives, where there is one: a tile whose fit found another peak than the
-    shell (the optics' sum products, which read 0.5-0.8 of the altitude; a glint).
+    shell (the optics' sum products, which read 0.5-0.9 of the altitude; a glint).
 
     Four tiles that scatter beyond their noise (Cochran's ``Q`` above its quantile at test
     level ``level``) and that the tilted model does not fit either (:meth:`TiltFit.fits`:
@@ -147,15 +147,15 @@ def without_odd_tile(fits: list[tuple[float, float, float, float]], focal_px: fl
     if len(fits) < 4:
         return fits
     logs = [(f[2], f[3]) for f in fits]
-    q, _, _ = cochran_q(logs)
+    if cochran_q(logs)[0] <= chi2_quantile(len(fits) - 1, level):
+        return fits  # one scale within the noise
     tilted = fit_tilt(fits, focal_px)
-    if q <= chi2_quantile(len(fits) - 1, level) or (tilted is not None
-                                                    and tilted.fits(level)):
-        return fits
-    rests = [logs[:i] + logs[i + 1:] for i in range(len(logs))]
-    i = min(range(len(logs)), key=lambda j: cochran_q(rests[j])[0])
-    q_rest, mean, sw = cochran_q(rests[i])
-    off = abs(logs[i][0] - mean) / math.hypot(logs[i][1], 1.0 / math.sqrt(sw))
+    if tilted is not None and tilted.fits(level):
+        return fits  # a tilt's scales
+    rests = [cochran_q(logs[:j] + logs[j + 1:]) for j in range(len(logs))]
+    i = min(range(len(logs)), key=lambda j: rests[j][0])
+    q_rest, mean, w = rests[i]
+    off = abs(logs[i][0] - mean) / math.hypot(logs[i][1], 1.0 / math.sqrt(float(w.sum())))
     if q_rest > chi2_quantile(len(fits) - 2, level) or off <= TILE_AGREEMENT_SIGMAS:
         return fits
     return fits[:i] + fits[i + 1:]

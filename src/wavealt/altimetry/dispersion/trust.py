@@ -490,9 +490,9 @@ def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LE
     """
     if len(fits) < 2:
         return 0.0
-    q, _, sw = cochran_q(fits)
+    q, _, w = cochran_q(fits)
     dof = len(fits) - 1
     if q <= chi2_quantile(dof, level):
         return 0.0
-    w = 1.0 / np.maximum(np.array([s for _, s in fits]), 1e-6) ** 2
+    sw = float(w.sum())
     return math.sqrt((q - dof) / (sw - float(np.sum(w * w)) / sw))

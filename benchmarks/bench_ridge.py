@@ -3,6 +3,8 @@ truth, per window of ``bench_dispersion.py``'s rows; prints one JSON object.
 
     python benchmarks/bench_ridge.py [--rows realistic-10-prior,...] [--seeds 23,31]
         [--sequences 100] [--out FILE.json] [--no-cache]
+    python benchmarks/bench_ridge.py --square 0,0.3,1 [--frames 15,30] [--clips 24]
+        [--seed 5000] [--out FILE.json]
 
 Without the camera's velocity the fit maximises the periodogram score over altitude and
 velocity together (:meth:`~wavealt.altimetry.dispersion.profile._Profile._profile_fit`).
@@ -26,6 +28,13 @@ clip and the score, not the estimator's start or its choice among peaks.  Per wi
 * ``drop_sd``: how far the score falls from the truth to 10 % above and below it along the
   ridge (their mean), in units of the score's noise (:func:`~wavealt.altimetry.dispersion.
   search.null_sd`): negative where the ridge rises away from the truth.
+
+``--square``: instead of the rows, the ridge on clips of the independent generator's sea
+(``bench_foreign_sea.py``: its scenes, amplitudes and slopes, the camera level) seen by an
+ideal camera, whose image is the slope along one direction plus ``W`` times the squared
+slope (both in units of that slope's standard deviation), for each weight ``W`` given, and
+by the generator's own optics (Fresnel reflection of its sky, its sensor; ``optics``): how
+the square that a real camera's optics add to its linear response flattens the ridge.
 
 The frames are ``bench_dispersion.py``'s (its cache); the periodogram is the one the
 estimator's blind fit is made of (:func:`fitted_periodogram`: its signal, the corner tiles'
@@ -158,9 +167,7 @@ def window_ridges(row: bench.RowSpec, seed: int, sequences: int,
             rec = {"row": row.name, "seed": seed, "index": i, "condition": cond,
                    "altitude_m": float(sc.altitude_m)}
             if p is None:
-                rec.update(ridge_measures({"log_h": np.zeros(0), "score": np.zeros(0),
-                                           "velocity_mps": np.zeros((0, 2)), "noise": 0.0,
-                                           "truth": None}, 1.0, (0.0, 0.0), 1.0, 1.0))
+                rec.update(ridge_measures(_NO_RIDGE, 1.0, (0.0, 0.0), 1.0, 1.0))
             else:
                 r = ridge(est, p, float(sc.altitude_m), sc.camera_velocity_mps, cfg.fps,
                           cfg.focal_px)
@@ -168,6 +175,78 @@ def window_ridges(row: bench.RowSpec, seed: int, sequences: int,
                                           bench.PRIOR_SIGMA_MPS, target))
             recs.append(rec)
     return recs
+
+
+def square_clip(seed: int, frames: int, square: float | None) -> tuple[np.ndarray, Any]:
+    """Clip ``seed`` of the independent generator (``bench_foreign_sea.py``) with ``frames``
+    frames, uint8, and its scene: seen by an ideal camera whose image is ``s / sd(s) +
+    square |grad eta|^2 / sd(s)^2`` (``s`` the slope along a direction drawn from the seed),
+    scaled to 30 grey levels a standard deviation about 128; ``square`` None: by the
+    generator's own optics and sensor."""
+    fs = _foreign_sea()
+    sc = fs.draw_scene(seed)
+    rng = np.random.default_rng((sc.seed, 1))
+    amp = fs.random_amplitudes(sc, rng)
+    sx, sy = fs.slope_frames(sc, amp, frames)
+    if square is None:
+        return fs.capture(sc, fs.radiance(sc, sx, sy, None), rng)[0], sc
+    angle = np.random.default_rng((seed, 7)).uniform(0.0, 2.0 * math.pi)
+    lin = sx * math.cos(angle) + sy * math.sin(angle)
+    sd = float(lin.std())
+    img = lin / sd + square * (sx * sx + sy * sy) / (sd * sd)
+    img = 128.0 + 30.0 * (img - img.mean()) / img.std()
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8), sc
+
+
+def _foreign_sea() -> Any:
+    import bench_foreign_sea
+
+    return bench_foreign_sea
+
+
+def square_ridges(squares: Sequence[float | None], frame_counts: Sequence[int], clips: int,
+                  seed: int) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Per square weight (None: the generator's optics) and frame count: the ridge's
+    measures on ``clips`` clips (seeds ``seed ..``), their summary and every window."""
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+
+    est = DispersionAltimeter(dispersion="gravity-capillary")
+    use_compiled()
+    fs = _foreign_sea()
+    summary: dict[str, Any] = {}
+    recs = []
+    for square in squares:
+        name = "optics" if square is None else f"square {square:g}"
+        for frames in frame_counts:
+            sel = []
+            for i in tqdm(range(clips), desc=f"{name}, {frames} frames", unit="clip",
+                          file=sys.stderr):
+                clip, sc = square_clip(seed + i, frames, square)
+                p = fitted_periodogram(est, clip, fs.FPS, sc.focal_px)
+                rec = {"row": name, "seed": seed + i, "index": frames, "condition": "-",
+                       "altitude_m": sc.altitude_m}
+                if p is None:
+                    rec.update(ridge_measures(_NO_RIDGE, 1.0, (0.0, 0.0), 1.0, 1.0))
+                else:
+                    r = ridge(est, p, sc.altitude_m, sc.over_water, fs.FPS, sc.focal_px)
+                    rec.update(ridge_measures(r, sc.altitude_m, sc.over_water,
+                                              bench.PRIOR_SIGMA_MPS, 1.0))
+                sel.append(rec)
+            err = np.abs(np.array([r["peak_err"] for r in sel], dtype=float))
+            err = err[np.isfinite(err)]
+            summary[f"{name}, {frames} frames"] = {
+                "clips": clips, "measured": int(err.size),
+                "peak_mae_pct": round(100 * float(np.mean(err)), 3) if err.size else None,
+                "peak_median_pct": round(100 * float(np.median(err)), 3) if err.size else None,
+                **{f"{k}_q25_50_75": _quantiles(np.array([r[k] for r in sel], dtype=float))
+                   for k in ("path_err_mps", "slope_mps", "drop_sd")}}
+            recs += sel
+    return summary, recs
+
+
+#: The measures of a window without a periodogram (:func:`ridge_measures`: all NaN).
+_NO_RIDGE = {"log_h": np.zeros(0), "score": np.zeros(0), "velocity_mps": np.zeros((0, 2)),
+             "noise": 0.0, "truth": None}
 
 
 def _quantiles(values: np.ndarray) -> list[float | None]:
@@ -206,7 +285,28 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--sequences", type=int, default=100)
     ap.add_argument("--out", type=Path, default=None, help="write the JSON here too")
     ap.add_argument("--no-cache", action="store_true")
+    ap.add_argument("--square", default=None,
+                    help="comma-separated square weights W (module docstring; 'optics' for "
+                         "the generator's own): the ideal camera's clips instead of the rows")
+    ap.add_argument("--frames", default="15,30", help="with --square: frames per clip")
+    ap.add_argument("--clips", type=int, default=24, help="with --square: clips per case")
+    ap.add_argument("--seed", type=int, default=5000, help="with --square: the first clip's")
     args = ap.parse_args(argv)
+    if args.square is not None:
+        try:
+            args.square = [None if w == "optics" else float(w)
+                           for w in args.square.split(",") if w]
+            args.frames = [int(f) for f in args.frames.split(",") if f]
+        except ValueError:
+            ap.error(f"--square takes numbers or 'optics' and --frames integers; got "
+                     f"{args.square!r}, {args.frames!r}")
+        if (not args.square or not args.frames or min(args.frames) < MIN_FRAMES
+                or any(w is not None and not (math.isfinite(w) and w >= 0)
+                       for w in args.square)):
+            ap.error("--square needs finite weights >= 0 and --frames at least "
+                     f"{MIN_FRAMES} frames")
+        if args.clips < 1:
+            ap.error(f"--clips must be >= 1; got {args.clips}")
     names = [n for n in args.rows.split(",") if n]
     unknown = [n for n in names if n not in bench.ROW_BY_NAME]
     if unknown:
@@ -230,6 +330,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.out is not None and args.out.suffix != ".json":
         raise SystemExit(f"--out must name a .json file; got {args.out}")
     bench.init_process()
+    if args.square is not None:
+        summary, windows = square_ridges(args.square, args.frames, args.clips, args.seed)
+        result = {"git": bench.git_state(), "seed": args.seed, "clips": args.clips,
+                  "cases": summary}
+        _write(result, windows, args.out)
+        return 0
     result: dict[str, Any] = {"git": bench.git_state(), "seeds": args.seeds,
                               "sequences": args.sequences,
                               "prior_sigma_mps": bench.PRIOR_SIGMA_MPS, "rows": {}}
@@ -240,14 +346,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             recs = window_ridges(row, seed, args.sequences, not args.no_cache)
             windows += recs
             result["rows"][row.name][str(seed)] = summarise(recs, row)
+    _write(result, windows, args.out)
+    return 0
+
+
+def _write(result: dict[str, Any], windows: list[dict[str, Any]], out: Path | None) -> None:
+    """Print ``result`` as JSON; with ``out``, write it there and every window beside it
+    (``.csv``)."""
     text = json.dumps(result, indent=2)
     print(text)
-    if args.out is not None:
-        bench.atomic_write_text(args.out, text + "\n")
+    if out is not None:
+        bench.atomic_write_text(out, text + "\n")
         lines = [",".join(COLUMNS)]
         lines += [",".join(str(r[k]) for k in COLUMNS) for r in windows]
-        bench.atomic_write_text(args.out.with_suffix(".csv"), "\n".join(lines) + "\n")
-    return 0
+        bench.atomic_write_text(out.with_suffix(".csv"), "\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

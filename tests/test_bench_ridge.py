@@ -93,3 +93,40 @@ def test_an_unknown_row_is_refused_in_one_line() -> None:
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 2
     assert "unknown row(s) realistic-10-prio" in res.stderr.strip().splitlines()[-1]
+
+
+def test_the_ideal_cameras_clip_is_its_slope_plus_the_square_asked_for(ridge_bench) -> None:
+    fs = ridge_bench._foreign_sea()
+    clip0, sc = ridge_bench.square_clip(5000, 4, 0.0)
+    clip2, sc2 = ridge_bench.square_clip(5000, 4, 2.0)
+    assert clip0.shape == (4, fs.SIZE, fs.SIZE) and clip0.dtype == np.uint8
+    assert sc == sc2  # the same scene, amplitudes and direction: only the square differs
+    amp = fs.random_amplitudes(sc, np.random.default_rng((sc.seed, 1)))
+    sx, sy = fs.slope_frames(sc, amp, 4)
+    angle = np.random.default_rng((5000, 7)).uniform(0.0, 2.0 * math.pi)
+    lin = (sx * math.cos(angle) + sy * math.sin(angle)).ravel()
+    sq = (sx * sx + sy * sy).ravel()
+
+    def r2(clip, *parts) -> float:
+        """The share of the clip's variance that a least-squares fit on ``parts`` explains."""
+        y = clip.astype(float).ravel()
+        a = np.column_stack([np.ones_like(y), *parts])
+        res = y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
+        return 1.0 - res.var() / y.var()
+    # the linear camera's image is its slope (8-bit rounding aside); the square's is not,
+    # until the squared slope joins the fit
+    assert r2(clip0, lin) > 0.99
+    assert r2(clip2, lin) < 0.9
+    assert r2(clip2, lin, sq) > 0.97  # (the square's tail clipped at 255 aside)
+    optics, _ = ridge_bench.square_clip(5000, 4, None)
+    assert optics.shape == clip0.shape and optics.dtype == np.uint8
+
+
+@pytest.mark.parametrize("args", [["--square", "0,-1"], ["--square", "x"],
+                                  ["--square", "0", "--frames", "2"],
+                                  ["--square", "0", "--clips", "0"]])
+def test_bad_square_options_are_refused_in_one_line(args) -> None:
+    res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2
+    assert "error:" in res.stderr.strip().splitlines()[-1]

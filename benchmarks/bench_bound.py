@@ -185,17 +185,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--out", type=Path, default=None, help="write the JSON here too")
     ap.add_argument("--no-cache", action="store_true")
     args = ap.parse_args(argv)
-    names = [n for n in args.rows.split(",") if n]
-    unknown = [n for n in names if n not in bench.ROW_BY_NAME]
-    if unknown:
-        ap.error(f"unknown row(s) {', '.join(unknown)}; known: {', '.join(bench.ROW_BY_NAME)}")
-    args.rows = [bench.ROW_BY_NAME[n] for n in dict.fromkeys(names)]
-    try:
-        args.seeds = [int(s) for s in args.seeds.split(",") if s]
-    except ValueError:
-        ap.error(f"--seeds must be comma-separated integers; got {args.seeds!r}")
-    if args.sequences < 1:
-        ap.error(f"--sequences must be >= 1; got {args.sequences}")
+    bench.known_rows_and_seeds(ap, args)
     return args
 
 

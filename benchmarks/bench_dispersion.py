@@ -145,6 +145,24 @@ OTHER_ROW = re.compile(r"(realistic|paper)-([0-9]+)-(blind|prior|exact)")
 OTHER_ROW_FRAMES = (3, 600)
 
 
+def known_rows_and_seeds(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """``args.rows`` (comma-separated names of :data:`ROWS`) as :class:`RowSpec` entries,
+    ``args.seeds`` as integers, and ``args.sequences`` at least 1, in place: for the scripts
+    that read this one's rows (``bench_bound.py``, ``bench_ridge.py``); an unknown row or a
+    bad number is ``ap.error``'s one line."""
+    names = [n for n in args.rows.split(",") if n]
+    unknown = [n for n in names if n not in ROW_BY_NAME]
+    if unknown:
+        ap.error(f"unknown row(s) {', '.join(unknown)}; known: {', '.join(ROW_BY_NAME)}")
+    args.rows = [ROW_BY_NAME[n] for n in dict.fromkeys(names)]
+    try:
+        args.seeds = [int(s) for s in args.seeds.split(",") if s]
+    except ValueError:
+        ap.error(f"--seeds must be comma-separated integers; got {args.seeds!r}")
+    if args.sequences < 1:
+        ap.error(f"--sequences must be >= 1; got {args.sequences}")
+
+
 def row_of(name: str) -> RowSpec | None:
     """The row named ``name``: one of :data:`ROWS`, or :data:`OTHER_ROW` with
     ``OTHER_ROW_FRAMES`` frames and no MAE target; None for neither."""

@@ -58,6 +58,8 @@ from tqdm import tqdm  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_dispersion as bench  # noqa: E402
 
+from wavealt.altimetry.dispersion.spectra import sharpness_at  # noqa: E402
+
 #: Highest share at the truth taken as such (a share of 1 is a noiseless mode).
 MAX_SHARE = 0.99
 #: The Hann window's equivalent noise bandwidth, bins per dimension of the plane.
@@ -81,7 +83,7 @@ def bounds(p: dict[str, Any], est: Any, altitude_m: float, velocity_mps: Sequenc
     altitude and camera velocity over the water (the periodogram's convention)."""
     t = int(p["frames"])
     kx, ky, kappa = (np.asarray(p[k], dtype=np.float64) for k in ("kx", "ky", "kappa"))
-    share = np.asarray(p["q"], dtype=np.float64) ** (1.0 / est.sharpness)
+    share = np.asarray(p["q"], dtype=np.float64) ** (1.0 / sharpness_at(est.sharpness, t))
     n_psi = share.shape[1]
     om, dom = est._omega_and_dlog(kappa, focal_px, altitude_m)
     scale = focal_px / (altitude_m * fps)  # m/s -> px/frame

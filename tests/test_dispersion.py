@@ -1568,3 +1568,23 @@ def test_frames_not_measured_at_the_working_scale_are_fitted_as_they_are() -> No
     assert res.altitude_m == native.altitude_m and res.trusted
     assert res.signal == native.signal + "+finer"
     assert abs(res.altitude_m / 12.0 - 1) < 0.02
+
+
+def test_the_shares_exponent_falls_with_the_clips_length_beyond_the_reference() -> None:
+    from wavealt.altimetry.dispersion.constants import (
+        SHARPNESS_FRAMES_POWER,
+        SHARPNESS_REFERENCE_FRAMES,
+    )
+    from wavealt.altimetry.dispersion.spectra import sharpness_at
+
+    ref = SHARPNESS_REFERENCE_FRAMES
+    # up to the reference, the altimeter's own exponent, as given (the same bits as before)
+    for frames in (3, 10, ref):
+        assert sharpness_at(5.0, frames) == 5.0
+    # beyond it, lower, as the law says, and never below 1 (no share raised to less than
+    # itself, however long the clip)
+    longer = [sharpness_at(5.0, t) for t in (ref + 1, 2 * ref, 4 * ref)]
+    assert longer == sorted(longer, reverse=True) and longer[0] < 5.0
+    assert sharpness_at(5.0, 2 * ref) == pytest.approx(5.0 * 0.5 ** SHARPNESS_FRAMES_POWER)
+    assert sharpness_at(5.0, 3600) == 1.0
+    assert sharpness_at(1.0, 2 * ref) == 1.0

@@ -97,7 +97,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     n_groups : int
         Mode groups whose spread gives the uncertainty.
     sharpness : float
-        Exponent applied to every mode's explained share (:meth:`_periodogram`).
+        Exponent applied to every mode's explained share (:meth:`_periodogram`) on clips
+        of up to ``SHARPNESS_REFERENCE_FRAMES`` frames; lower on longer clips
+        (:func:`.spectra.sharpness_at`).
     corner_tiles : float
         Side of the four corner tiles the periodogram is taken over, as a fraction of the
         frame's (0.5: the quadrants; :meth:`_periodogram`); 0, or tiles under 32 px, for

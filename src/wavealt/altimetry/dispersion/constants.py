@@ -390,3 +390,15 @@ CARRIED_MAP_PEAKS = 5
 #: (a disk; :meth:`DispersionAltimeter._fit_blind`): a 2-D normal error of ``sigma`` per
 #: axis lies within it with probability ``1 - exp(-PRIOR_SIGMAS^2 / 2)`` = 0.989.
 PRIOR_SIGMAS = 3.0
+
+#: The periodogram's shares are raised to the altimeter's ``sharpness`` on clips of up to
+#: this many frames, and to ``sharpness (T_ref / T) ** SHARPNESS_FRAMES_POWER`` (not below
+#: 1) on longer ones (:func:`~wavealt.altimetry.dispersion.spectra.sharpness_at`).  A longer clip's
+#: noise share ``1 / (T - 1)`` is smaller and its peaks narrower, so a lower exponent keeps
+#: its moderately explained modes without letting the noise in.  Measured on the realistic
+#: preset's tuning seeds 101 and 202 (40 sequences each; the score's ridge through the
+#: truth, ``benchmarks/bench_ridge.py``): the ridge's MAE is least at exponent 5 at 15
+#: frames, 4-5 at 20, 2-3 at 30 and 2-3 at 45 (``docs/dispersion.md``, thirty-fifth
+#: session).
+SHARPNESS_REFERENCE_FRAMES = 15
+SHARPNESS_FRAMES_POWER = 0.75

@@ -15,6 +15,8 @@ from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.constants import (
     JITTER_MIN_FRAMES,
     MIN_FIT_MODES,
+    SHARPNESS_FRAMES_POWER,
+    SHARPNESS_REFERENCE_FRAMES,
     STATIC_NORM_FRACTION,
 )
 from wavealt.altimetry.dispersion.attitude import tile_centres
@@ -136,6 +138,18 @@ def _sharpen(q: np.ndarray, exponent: float) -> np.ndarray:
     for _ in range(int(e) - 1):
         out *= q
     return out
+
+
+def sharpness_at(sharpness: float, frames: int) -> float:
+    """The exponent :meth:`_Spectra._share_table` raises a ``frames``-frame clip's shares to:
+    ``sharpness`` up to ``SHARPNESS_REFERENCE_FRAMES`` frames, and
+    ``sharpness (T_ref / T) ** SHARPNESS_FRAMES_POWER`` beyond, but not below 1 (no
+    flattening: a share is never raised to less than itself; ``docs/dispersion.md``,
+    thirty-fifth session)."""
+    if frames <= SHARPNESS_REFERENCE_FRAMES:
+        return float(sharpness)
+    law = float(sharpness) * (SHARPNESS_REFERENCE_FRAMES / frames) ** SHARPNESS_FRAMES_POWER
+    return max(law, 1.0)
 
 
 class _Spectra:
@@ -356,7 +370,8 @@ class _Spectra:
         # frequencies, glint) count little.  Measured on the paper renderer (velocity known,
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         kept = carried is None
-        return _Table(_sharpen(share, self.sharpness), kx[idx], ky[idx], kappa[idx],
+        return _Table(_sharpen(share, sharpness_at(self.sharpness, t)), kx[idx], ky[idx],
+                      kappa[idx],
                       g if kept else None, modes if kept else None, shake,
                       cont if kept else None, shift if kept else None, table_shift,
                       powers if kept else None)
@@ -424,7 +439,8 @@ class _Spectra:
         idx = idx[keep]
         share = (explained.T[keep] / denom[None, :] / energy.T[keep]).astype(np.float32)
         share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
-        return _Table(_sharpen(share, self.sharpness), plane_kx[idx], plane_ky[idx],
+        return _Table(_sharpen(share, sharpness_at(self.sharpness, t)), plane_kx[idx],
+                      plane_ky[idx],
                       plane_kappa[idx], None, None, None, None, None, shift, None)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:

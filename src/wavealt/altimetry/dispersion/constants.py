@@ -398,7 +398,7 @@ PRIOR_SIGMAS = 3.0
 #: its moderately explained modes without letting the noise in.  Measured on the realistic
 #: preset's tuning seeds 101 and 202 (40 sequences each; the score's ridge through the
 #: truth, ``benchmarks/bench_ridge.py``): the ridge's MAE is least at exponent 5 at 15
-#: frames, 4-5 at 20, 2-3 at 30 and 2-3 at 45 (``docs/dispersion.md``, thirty-fifth
+#: frames, 4-5 at 20, 2-3 at 30 and about 2 at 45 (``docs/dispersion.md``, thirty-fifth
 #: session).
 SHARPNESS_REFERENCE_FRAMES = 15
 SHARPNESS_FRAMES_POWER = 0.75

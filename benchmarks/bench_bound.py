@@ -45,7 +45,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
@@ -191,6 +190,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return args
 
 
+#: Each window's fields in the CSV beside ``--out``.
+COLUMNS = ("row", "seed", "index", "condition", "altitude_m", "exact", "prior", "blind",
+           "snr_modes")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     if args.out is not None and args.out.suffix != ".json":
@@ -205,15 +209,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             recs = window_bounds(row, seed, args.sequences, not args.no_cache)
             windows += recs
             result["rows"][row.name][str(seed)] = summarise(recs, row)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.out is not None:
-        bench.atomic_write_text(args.out, text + "\n")
-        lines = ["row,seed,index,condition,altitude_m,exact,prior,blind,snr_modes"]
-        lines += [",".join(str(r[k]) for k in ("row", "seed", "index", "condition",
-                                              "altitude_m", "exact", "prior", "blind",
-                                              "snr_modes")) for r in windows]
-        bench.atomic_write_text(args.out.with_suffix(".csv"), "\n".join(lines) + "\n")
+    bench.print_and_write(result, windows, COLUMNS, args.out)
     return 0
 
 

@@ -163,6 +163,20 @@ def known_rows_and_seeds(ap: argparse.ArgumentParser, args: argparse.Namespace) 
         ap.error(f"--sequences must be >= 1; got {args.sequences}")
 
 
+def print_and_write(result: dict[str, Any], windows: list[dict[str, Any]],
+                    columns: Sequence[str], out: Path | None) -> None:
+    """Print ``result`` as JSON; with ``out``, write it there and each window's ``columns``
+    beside it (``.csv``): for the scripts that read this one's rows (``bench_bound.py``,
+    ``bench_ridge.py``)."""
+    text = json.dumps(result, indent=2)
+    print(text)
+    if out is not None:
+        atomic_write_text(out, text + "\n")
+        lines = [",".join(columns)]
+        lines += [",".join(str(r[k]) for k in columns) for r in windows]
+        atomic_write_text(out.with_suffix(".csv"), "\n".join(lines) + "\n")
+
+
 def row_of(name: str) -> RowSpec | None:
     """The row named ``name``: one of :data:`ROWS`, or :data:`OTHER_ROW` with
     ``OTHER_ROW_FRAMES`` frames and no MAE target; None for neither."""

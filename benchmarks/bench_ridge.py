@@ -50,7 +50,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
@@ -109,15 +108,19 @@ def ridge(est: Any, p: dict[str, Any], altitude_m: float, velocity_mps: Sequence
             "noise": null_sd(p, sub), "truth": j0}
 
 
+#: The measures of a window whose ridge cannot be read (no periodogram, the truth off the
+#: range, a score that is not finite).
+NO_MEASURES = {"peak_err": math.nan, "path_err_mps": math.nan, "slope_mps": math.nan,
+               "prior_pct": math.nan, "sigma_for_target_mps": math.nan, "drop_sd": math.nan}
+
+
 def ridge_measures(r: dict[str, np.ndarray], altitude_m: float,
                    velocity_mps: Sequence[float], prior_sigma_mps: float,
                    target_pct: float) -> dict[str, float]:
     """The per-window measures of the module docstring from a :func:`ridge`."""
     grid, score, vel, j0 = r["log_h"], r["score"], r["velocity_mps"], r["truth"]
-    nan = {"peak_err": math.nan, "path_err_mps": math.nan, "slope_mps": math.nan,
-           "prior_pct": math.nan, "sigma_for_target_mps": math.nan, "drop_sd": math.nan}
     if j0 is None or grid.size < 3 or not np.all(np.isfinite(score)):
-        return nan
+        return dict(NO_MEASURES)
     k = int(np.argmax(score))
     peak = float(grid[k])  # at an end of the grid, the end
     if 0 < k < grid.size - 1:  # a parabola through the best three
@@ -167,7 +170,7 @@ def window_ridges(row: bench.RowSpec, seed: int, sequences: int,
             rec = {"row": row.name, "seed": seed, "index": i, "condition": cond,
                    "altitude_m": float(sc.altitude_m)}
             if p is None:
-                rec.update(ridge_measures(_NO_RIDGE, 1.0, (0.0, 0.0), 1.0, 1.0))
+                rec.update(NO_MEASURES)
             else:
                 r = ridge(est, p, float(sc.altitude_m), sc.camera_velocity_mps, cfg.fps,
                           cfg.focal_px)
@@ -226,7 +229,7 @@ def square_ridges(squares: Sequence[float | None], frame_counts: Sequence[int], 
                 rec = {"row": name, "seed": seed + i, "index": frames, "condition": "-",
                        "altitude_m": sc.altitude_m}
                 if p is None:
-                    rec.update(ridge_measures(_NO_RIDGE, 1.0, (0.0, 0.0), 1.0, 1.0))
+                    rec.update(NO_MEASURES)
                 else:
                     r = ridge(est, p, sc.altitude_m, sc.over_water, fs.FPS, sc.focal_px)
                     rec.update(ridge_measures(r, sc.altitude_m, sc.over_water,
@@ -242,11 +245,6 @@ def square_ridges(squares: Sequence[float | None], frame_counts: Sequence[int], 
                    for k in ("path_err_mps", "slope_mps", "drop_sd")}}
             recs += sel
     return summary, recs
-
-
-#: The measures of a window without a periodogram (:func:`ridge_measures`: all NaN).
-_NO_RIDGE = {"log_h": np.zeros(0), "score": np.zeros(0), "velocity_mps": np.zeros((0, 2)),
-             "noise": 0.0, "truth": None}
 
 
 def _quantiles(values: np.ndarray) -> list[float | None]:
@@ -324,7 +322,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         summary, windows = square_ridges(args.square, args.frames, args.clips, args.seed)
         result = {"git": bench.git_state(), "seed": args.seed, "clips": args.clips,
                   "cases": summary}
-        _write(result, windows, args.out)
+        bench.print_and_write(result, windows, COLUMNS, args.out)
         return 0
     result: dict[str, Any] = {"git": bench.git_state(), "seeds": args.seeds,
                               "sequences": args.sequences,
@@ -336,20 +334,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             recs = window_ridges(row, seed, args.sequences, not args.no_cache)
             windows += recs
             result["rows"][row.name][str(seed)] = summarise(recs, row)
-    _write(result, windows, args.out)
+    bench.print_and_write(result, windows, COLUMNS, args.out)
     return 0
-
-
-def _write(result: dict[str, Any], windows: list[dict[str, Any]], out: Path | None) -> None:
-    """Print ``result`` as JSON; with ``out``, write it there and every window beside it
-    (``.csv``)."""
-    text = json.dumps(result, indent=2)
-    print(text)
-    if out is not None:
-        bench.atomic_write_text(out, text + "\n")
-        lines = [",".join(COLUMNS)]
-        lines += [",".join(str(r[k]) for k in COLUMNS) for r in windows]
-        bench.atomic_write_text(out.with_suffix(".csv"), "\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

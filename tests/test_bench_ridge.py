@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wavealt.altimetry.dispersion.spectra import sharpness_at
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_ridge.py"
 
 
@@ -43,7 +45,7 @@ def _table(est, altitude: float, velocity, fps: float, focal: float, frames: int
     d = np.abs(((np.arange(n_psi)[None, :] - pos[:, None]) + n_psi / 2) % n_psi - n_psi / 2)
     table = np.maximum(table, 0.8 * np.clip(1.0 - d / width, 0.0, 1.0))
     return {"frames": frames, "kx": kx, "ky": ky, "kappa": kappa,
-            "q": (table ** est.sharpness).astype(np.float32)}
+            "q": (table ** sharpness_at(est.sharpness, frames)).astype(np.float32)}
 
 
 @pytest.fixture(scope="module")

@@ -371,8 +371,7 @@ class _Spectra:
         # 14 scenes, 1-15 m): relative MAE 9.4 % at 1, 1.05 % at 4, 0.89 % at 6.
         kept = carried is None
         return _Table(_sharpen(share, sharpness_at(self.sharpness, t)), kx[idx], ky[idx],
-                      kappa[idx],
-                      g if kept else None, modes if kept else None, shake,
+                      kappa[idx], g if kept else None, modes if kept else None, shake,
                       cont if kept else None, shift if kept else None, table_shift,
                       powers if kept else None)
 
@@ -440,8 +439,8 @@ class _Spectra:
         share = (explained.T[keep] / denom[None, :] / energy.T[keep]).astype(np.float32)
         share[:, denom < STATIC_NORM_FRACTION * t] = 0.0
         return _Table(_sharpen(share, sharpness_at(self.sharpness, t)), plane_kx[idx],
-                      plane_ky[idx],
-                      plane_kappa[idx], None, None, None, None, None, shift, None)
+                      plane_ky[idx], plane_kappa[idx], None, None, None, None, None, shift,
+                      None)
 
     def _plane(self, h: int, w: int, limit: int | None = None) -> tuple[np.ndarray, ...]:
         """Flat ``kx, ky, kappa`` (rad/px) of an ``(h, w)`` rfft2 plane, the indices of the

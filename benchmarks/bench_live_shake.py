@@ -165,6 +165,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
                        "estimate_m": res["altitude_m"], "std_m": res["altitude_std_m"],
                        "trusted": bool(res["trusted"]), "reason": res["reason"],
                        "steadied": "+steadied" in result.signal,
+                       "shake_px": round(result.shake_px, 3), "signal": result.signal,
                        "delay_ms": None if stream.delay_s is None else 1e3 * stream.delay_s,
                        "ms": 1e3 * (time.perf_counter() - t0)}
                 out.append(row)

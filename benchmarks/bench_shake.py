@@ -141,6 +141,7 @@ def run_sequence(task: tuple[int, int], amplitudes: tuple[float, ...], frames: i
                         "altitude_m": truth["altitude_m"], "estimate_m": res.altitude_m,
                         "std_m": res.altitude_std_m, "trusted": bool(res.trusted),
                         "reason": res.reason, "steadied": "+steadied" in res.signal,
+                        "shake_px": round(res.shake_px, 3), "signal": res.signal,
                         "ms": 1e3 * (time.perf_counter() - t0)})
     return out
 

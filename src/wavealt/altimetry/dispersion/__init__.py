@@ -115,9 +115,11 @@ A camera that rolls and pitches back and forth (no gimbal) moves the whole image
 shift that changes from frame to frame.  Every mode of a tile moves with it, so each
 mode's phase step departs from its steady one by ``-kappa . (s_{t+1} - s_t)``, one
 regression per frame over the modes (:mod:`.jitter`); where the four corner tiles agree on
-the shift, it is taken out of their mode series before the periodogram (``+steadied``),
-with a rotation about the image centre where the tiles show one (a heading that wavers:
-each tile then moves along its own tangent, :func:`.jitter.remove_motion`).
+the shift, each tile is moved back by it before it is windowed for the periodogram
+(``+steadied``; the shift that remains is read on the moved tiles and added,
+:func:`.jitter.steady_tiles`), with a rotation about the image centre where the tiles show
+one (a heading that wavers: each tile then moves along its own tangent,
+:func:`.jitter.remove_motion`).
 The rotation's mean rate over the clip moves the image as a drift does, which a blind fit
 takes into its velocity and a velocity given does not hold: exact and prior fits of
 steadied frames are not trusted.  The same measurement on frames as they came

@@ -170,6 +170,12 @@ JITTER_MIN_TURNS = 1.0
 JITTER_MIN_RATIO = 8.0
 JITTER_MIN_FRAMES = 15
 JITTER_PASSES = 3
+#: The tiles themselves moved back by the shake found (:func:`.jitter.steady_tiles`), then
+#: windowed again, this many times; each time but the last the shake that remains is read on
+#: them and added.  A shake taken out of the windowed tiles' modes by their phase alone
+#: leaves each window where it was while the sea moves through it.  Tuning seeds (realistic
+#: 101 / 202, blind 1 s, ``bench_shake.py`` and ``bench_live_shake.py``): 2 and 3 read alike.
+JITTER_PIXEL_PASSES = 2
 #: Times the frames are turned back at the rate their corner tiles show and fitted again:
 #: the rate read on turning frames is 10-20 % low (realistic preset, tuning seeds), and a
 #: second pass reads what the first left.

@@ -18,9 +18,12 @@ Summed, ``e`` gives the shake less its mean motion (a steady turn moves the imag
 drift does; the fit takes that in the velocity).  The four corner tiles measure it each on
 their own modes; their mean is the estimate and their scatter its noise, so a shake is
 removed only where the tiles agree on it (``JITTER_MIN_RATIO``).  Removal multiplies each
-mode's series by ``exp(i k . s_t)``.  Marine-radar image sequences are registered for the
-platform's motion the same way, by its common phase (Young, Rosenthal & Ziemer 1985, for a
-ship's radar).  A camera whose heading also wavers turns the image about its centre, which
+mode's series by ``exp(i k . s_t)``; the periodogram then moves the tiles themselves back
+by the shake and windows them again, and reads what remains (:func:`steady_tiles`): taken
+out of the windowed modes' phases alone, a shake leaves the window where it was while the
+sea moves through it.  Marine-radar image sequences are registered for the platform's
+motion the same way, by its common phase (Young, Rosenthal & Ziemer 1985, for a ship's
+radar).  A camera whose heading also wavers turns the image about its centre, which
 moves each tile along its own tangent: the four tiles' mean is untouched, but they agree on
 it less; where the tiles show such a rotation above their noise it is read and removed with
 the shift (:func:`remove_motion`).
@@ -28,7 +31,10 @@ the shift (:func:`remove_motion`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+import scipy.fft
 
 from wavealt.altimetry.dispersion.constants import (
     JITTER_MAX_KAPPA,
@@ -36,6 +42,7 @@ from wavealt.altimetry.dispersion.constants import (
     JITTER_MODES,
     JITTER_MIN_RATIO,
     JITTER_PASSES,
+    JITTER_PIXEL_PASSES,
 )
 
 #: Tukey's biweight constant and the regression's reweighting steps.
@@ -191,6 +198,67 @@ def _unmove(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, shift: np.ndarra
     out = series * _phasor(phase)
     out -= out.mean(axis=1, keepdims=True)
     return out
+
+
+def motion_of_parts(shift: np.ndarray, theta: np.ndarray | None,
+                    centres: np.ndarray) -> np.ndarray:
+    """Each tile's own motion ``(tiles, T, 2)`` px: the shift ``(T, 2)`` the tiles share
+    and, where given, the rotation ``theta`` ``(T,)`` rad about the image centre (tiles at
+    ``centres`` ``(tiles, 2)`` px from it), as :func:`_unmove` takes them out."""
+    centres = np.asarray(centres, dtype=np.float64)
+    moved = np.repeat(shift[None], len(centres), axis=0)
+    if theta is not None:
+        moved += theta[None, :, None] * _tangents(centres)[:, None, :]
+    return moved
+
+
+def move_back(parts: list[np.ndarray], moved: np.ndarray) -> list[np.ndarray]:
+    """Each tile ``parts[i]`` ``(T, h, w)`` moved back frame by frame by its own motion
+    ``moved[i]`` ``(T, 2)`` px (x, y), float32: a circular sub-pixel shift (the phase
+    :func:`_unmove` gives a mode, on the unwindowed tile; the strip that wraps round is
+    where a Hann window is near zero)."""
+    t, h, w = parts[0].shape
+    ky = (2.0 * np.pi * np.fft.fftfreq(h))[None, :, None]
+    kx = (2.0 * np.pi * np.fft.rfftfreq(w))[None, None, :]
+    out = []
+    for part, m in zip(parts, moved):
+        plane = scipy.fft.rfft2(part, workers=1)
+        plane *= _phasor(kx * m[:, 0, None, None] + ky * m[:, 1, None, None])
+        out.append(scipy.fft.irfft2(plane, s=(h, w), workers=1).astype(np.float32, copy=False))
+    return out
+
+
+def steady_tiles(parts: list[np.ndarray],
+                 transform: Callable[[list[np.ndarray]], tuple[np.ndarray, np.ndarray]],
+                 kx: np.ndarray, ky: np.ndarray, centres: np.ndarray, shift: np.ndarray,
+                 theta: np.ndarray | None, passes: int = JITTER_PIXEL_PASSES
+                 ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, np.ndarray,
+                            np.ndarray | None]:
+    """The tiles ``parts`` steadied of the motion :func:`remove_motion` found in their
+    modes (``shift`` ``(T, 2)`` px, the rotation ``theta`` or None), by moving the tiles
+    themselves back (:func:`move_back`) and transforming them again (``transform(parts)``:
+    their mean-free mode series ``(tiles, T, modes)`` of wavenumbers ``kx, ky`` and their
+    planes).  Taken out of a windowed tile's modes by their phase, a shake leaves the window
+    where it was while the sea moves through it: every mode's amplitude then pulses with
+    the shake, and the shift read on the modes is off by as much.  ``passes`` times, each
+    but the last reading the motion that remains on the steadied tiles (a rotation only
+    where one was found) and adding it.  Returns the steadied tiles, their series and
+    planes, and the motion taken out."""
+    for k in range(passes):
+        moved = move_back(parts, motion_of_parts(shift, theta, centres))
+        series, planes = transform(moved)
+        if k + 1 == passes:
+            break
+        shakes = _shakes(series, kx, ky)
+        if theta is None:
+            more = _common(shakes)[0]
+        else:
+            more, turn, _, _ = _rigid(shakes, centres)
+            theta = theta + turn
+        if not np.all(np.isfinite(more)):
+            break
+        shift = shift + more
+    return moved, series, planes, shift, theta
 
 
 def _tangents(centres: np.ndarray) -> np.ndarray:

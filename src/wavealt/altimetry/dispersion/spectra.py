@@ -14,6 +14,7 @@ import scipy.fft
 from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.constants import (
     JITTER_MIN_FRAMES,
+    JITTER_PIXEL_PASSES,
     MIN_FIT_MODES,
     SHARPNESS_FRAMES_POWER,
     SHARPNESS_REFERENCE_FRAMES,
@@ -21,7 +22,7 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_lags
-from wavealt.altimetry.dispersion.jitter import remove_motion, remove_motion_seen
+from wavealt.altimetry.dispersion.jitter import remove_motion, remove_motion_seen, steady_tiles
 from wavealt.altimetry.dispersion.leakage import centroid_shifts, mode_shifts, plane_powers
 from wavealt.altimetry.dispersion.modeseries import (
     explained_energy,
@@ -103,6 +104,14 @@ def _windowed_modes(parts: list[np.ndarray], idx: np.ndarray,
     planes = scipy.fft.rfft2(x, overwrite_x=True)
     modes = planes.reshape(len(parts), t, -1)[:, :, idx]
     return (modes, planes) if whole else modes
+
+
+def _mean_free_modes(parts: list[np.ndarray], idx: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_windowed_modes` of ``parts`` (``whole``), each mode's temporal mean removed."""
+    g, planes = _windowed_modes(parts, idx, whole=True)
+    g -= g.mean(axis=1, keepdims=True)
+    return g, planes
 
 
 def _fast_len(n: int) -> int:
@@ -300,8 +309,9 @@ class _Spectra:
         (:data:`ROLLING`, once a first fit gave a velocity) take :meth:`_rolled_share_table`.
         The corner tiles' series (``centres``: theirs from the frame's centre, px; None for
         other parts) of a clip of at least ``JITTER_MIN_FRAMES`` frames are steadied first:
-        the image shift they share, a shaking camera's, is removed
-        (:func:`.jitter.remove_motion`; ``shake``: None for none; for ``series`` given,
+        the image shift they share, a shaking camera's, is found in their modes
+        (:func:`.jitter.remove_motion`) and the tiles are moved back by it
+        (:func:`.jitter.steady_tiles`; ``shake``: None for none; for ``series`` given,
         ``shaken``, theirs); read on ``recorded`` where given (the parts' values as
         recorded, where ``parts`` are their normal scores: :func:`.jitter.remove_motion_seen`)."""
         t, h, w = parts[0].shape
@@ -327,18 +337,22 @@ class _Spectra:
             else:
                 g = given.copy(order="K") if carried is not None else given
         else:
-            g, planes = _windowed_modes(parts, idx, whole=True)  # (parts, T, modes)
-            # the temporal mean of every pixel, removed where it is cheap: per selected mode
-            g -= g.mean(axis=1, keepdims=True)
+            # (parts, T, modes); the temporal mean of every pixel, removed where it is cheap:
+            # per selected mode
+            g, planes = _mean_free_modes(parts, idx)
             if centres is not None and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, with a rotation
                 # about the centre where they show one, removed (:mod:`.jitter`)
                 if recorded is None:
-                    g, shake, _ = remove_motion(g, kx[idx], ky[idx], centres)
+                    g, shake, turn = remove_motion(g, kx[idx], ky[idx], centres)
                 else:
                     seen = _windowed_modes(recorded, idx)
                     seen -= seen.mean(axis=1, keepdims=True)
-                    g, shake, _ = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
+                    g, shake, turn = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
+                if shake is not None:  # the tiles themselves moved back and taken again
+                    parts, g, planes, shake, _ = steady_tiles(
+                        parts, lambda moved: _mean_free_modes(moved, idx), kx[idx], ky[idx],
+                        centres, shake, turn, JITTER_PIXEL_PASSES)
         modes = idx  # the series' modes (the table drops those without energy below)
         if carried is not None:
             remove_carried(g, -(kx[idx] * carried[0] + ky[idx] * carried[1]))

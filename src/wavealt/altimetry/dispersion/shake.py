@@ -26,7 +26,8 @@ def image_shake(frames: Any, altimeter: Any = None, min_ratio: float = JITTER_MI
                 rotation: bool = False) -> Any:
     """The image shift of each frame of ``frames`` ``(T, H, W[, 3])`` that the corner tiles
     agree on, ``(T, 2)`` px of the frames given (x, y), less its mean motion over the clip
-    (no trend, mean zero): the shake the altimeter would remove before its fit, with the
+    (no trend, mean zero): the shake the altimeter first reads before its fit (it then
+    reads it again on its tiles moved back, :func:`.jitter.steady_tiles`), with the
     altimeter's signal, tiles and working scale (``altimeter``: a
     :class:`~wavealt.altimetry.dispersion.DispersionAltimeter`, the default one when None).
     None where the tiles share no shift standing ``min_ratio`` times above their own noise

@@ -193,23 +193,21 @@ def _unmove(series: np.ndarray, kx: np.ndarray, ky: np.ndarray, shift: np.ndarra
     again (a new array): the image shift ``shift`` ``(T, 2)`` px they share, and where given
     a rotation ``theta`` ``(T,)`` rad about the centre, which moves tile ``i`` by
     ``theta perp[i]`` (:func:`_tangents`)."""
-    moved = shift[None] if theta is None else shift[None] + theta[None, :, None] * perp[:, None, :]
+    moved = _tile_motion(shift, theta, perp)
     phase = kx[None, None, :] * moved[..., :1] + ky[None, None, :] * moved[..., 1:]
     out = series * _phasor(phase)
     out -= out.mean(axis=1, keepdims=True)
     return out
 
 
-def motion_of_parts(shift: np.ndarray, theta: np.ndarray | None,
-                    centres: np.ndarray) -> np.ndarray:
-    """Each tile's own motion ``(tiles, T, 2)`` px: the shift ``(T, 2)`` the tiles share
-    and, where given, the rotation ``theta`` ``(T,)`` rad about the image centre (tiles at
-    ``centres`` ``(tiles, 2)`` px from it), as :func:`_unmove` takes them out."""
-    centres = np.asarray(centres, dtype=np.float64)
-    moved = np.repeat(shift[None], len(centres), axis=0)
-    if theta is not None:
-        moved += theta[None, :, None] * _tangents(centres)[:, None, :]
-    return moved
+def _tile_motion(shift: np.ndarray, theta: np.ndarray | None,
+                 perp: np.ndarray | None) -> np.ndarray:
+    """Each tile's own motion, ``(tiles or 1, T, 2)`` px: the shift ``(T, 2)`` the tiles
+    share and, where given, the rotation ``theta`` ``(T,)`` rad about the image centre,
+    which moves tile ``i`` by ``theta perp[i]`` (:func:`_tangents`)."""
+    if theta is None:
+        return shift[None]
+    return shift[None] + theta[None, :, None] * perp[:, None, :]
 
 
 def move_back(parts: list[np.ndarray], moved: np.ndarray) -> list[np.ndarray]:
@@ -244,20 +242,20 @@ def steady_tiles(parts: list[np.ndarray],
     but the last reading the motion that remains on the steadied tiles (a rotation only
     where one was found) and adding it.  Returns the steadied tiles, their series and
     planes, and the motion taken out."""
+    centres = np.asarray(centres, dtype=np.float64)
+    perp = _tangents(centres)
     for k in range(passes):
-        moved = move_back(parts, motion_of_parts(shift, theta, centres))
+        motion = _tile_motion(shift, theta, perp)
+        moved = move_back(parts, np.broadcast_to(motion, (len(parts), *motion.shape[1:])))
         series, planes = transform(moved)
         if k + 1 == passes:
             break
         shakes = _shakes(series, kx, ky)
-        if theta is None:
-            more = _common(shakes)[0]
-        else:
-            more, turn, _, _ = _rigid(shakes, centres)
-            theta = theta + turn
-        if not np.all(np.isfinite(more)):
+        more, turn = (_common(shakes)[0], None) if theta is None else _rigid(shakes, centres)[:2]
+        if not (np.all(np.isfinite(more)) and (turn is None or np.all(np.isfinite(turn)))):
             break
         shift = shift + more
+        theta = None if theta is None else theta + turn
     return moved, series, planes, shift, theta
 
 

@@ -346,8 +346,7 @@ class _Spectra:
                 if recorded is None:
                     g, shake, turn = remove_motion(g, kx[idx], ky[idx], centres)
                 else:
-                    seen = _windowed_modes(recorded, idx)
-                    seen -= seen.mean(axis=1, keepdims=True)
+                    seen = _mean_free_modes(recorded, idx)[0]
                     g, shake, turn = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
                 if shake is not None:  # the tiles themselves moved back and taken again
                     parts, g, planes, shake, _ = steady_tiles(

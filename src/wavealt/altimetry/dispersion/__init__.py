@@ -119,7 +119,10 @@ the shift, each tile is moved back by it before it is windowed for the periodogr
 (``+steadied``; the shift that remains is read on the moved tiles and added,
 :func:`.jitter.steady_tiles`), with a rotation about the image centre where the tiles show
 one (a heading that wavers: each tile then moves along its own tangent,
-:func:`.jitter.remove_motion`).
+:func:`.jitter.remove_motion`).  The shift read is off by the tiles' own noise: a trusted
+steadied fit is made again with it one realisation of that noise off, either way (the tiles'
+shifts contrasted + - - + over the corners, which a shared shift and a rotation both cancel:
+:func:`.jitter.shake_noise`), and the larger change joins its uncertainty (:mod:`.turn`).
 The rotation's mean rate over the clip moves the image as a drift does, which a blind fit
 takes into its velocity and a velocity given does not hold: exact and prior fits of
 steadied frames are not trusted.  The same measurement on frames as they came

@@ -243,7 +243,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         token = set_rolling(readout_s, kw["fps"], rows)
         try:
             with _one_blas_thread():
-                return self._estimate(frames, binning=binning, **kw)
+                res = self._estimate(frames, binning=binning, **kw)
+                return self._shake_uncertain(res, frames, binning, readout_s, kw)
         finally:
             ROLLING.reset(token)
 

@@ -31,6 +31,8 @@ the shift (:func:`remove_motion`).
 
 from __future__ import annotations
 
+import contextvars
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -44,6 +46,18 @@ from wavealt.altimetry.dispersion.constants import (
     JITTER_PASSES,
     JITTER_PIXEL_PASSES,
 )
+
+#: A signed multiple of one realisation of the first shake reading's noise
+#: (:func:`shake_noise`), added to that reading before the tiles are moved back
+#: (:meth:`~.spectra._Spectra._share_table`): set while a trusted steadied fit is made again
+#: to see how far its shake's own error moves it
+#: (:meth:`~.turn._Turn._shake_uncertain`); 0 otherwise.
+SHAKE_OFF: contextvars.ContextVar[float] = contextvars.ContextVar("wavealt_shake_off",
+                                                                   default=0.0)
+#: The signs of the four corner tiles (top left, top right, bottom left, bottom right) in
+#: :func:`shake_noise`'s contrast: a shift they share and a rotation about the centre
+#: (which moves opposite corners opposite ways) both cancel in it.
+_NOISE_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])
 
 #: Tukey's biweight constant and the regression's reweighting steps.
 _TUKEY = 4.685
@@ -224,6 +238,19 @@ def move_back(parts: list[np.ndarray], moved: np.ndarray) -> list[np.ndarray]:
         plane *= _phasor(kx * m[:, 0, None, None] + ky * m[:, 1, None, None])
         out.append(scipy.fft.irfft2(plane, s=(h, w), workers=1).astype(np.float32, copy=False))
     return out
+
+
+def shake_noise(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
+    """One realisation of the noise of the shake the four corner tiles' mode series
+    ``series`` ``(4, T, modes)`` share, ``(T, 2)`` px: their shifts (:func:`_shakes`) summed
+    with the signs ``_NOISE_SIGNS``, a contrast that holds no shared shift and no rotation
+    about the centre, only the tiles' own scatter, over their number (the variance of their
+    mean) and times ``sqrt(n / (n - 1))``; zeros for another number of tiles."""
+    shakes = _shakes(series, kx, ky)
+    n = shakes.shape[0]
+    if n != _NOISE_SIGNS.size:
+        return np.zeros(shakes.shape[1:])
+    return np.tensordot(_NOISE_SIGNS, shakes, axes=1) / n * math.sqrt(n / (n - 1))
 
 
 def steady_tiles(parts: list[np.ndarray],

@@ -22,7 +22,8 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.continuum import continuum_lags, explained_of_lags
-from wavealt.altimetry.dispersion.jitter import remove_motion, remove_motion_seen, steady_tiles
+from wavealt.altimetry.dispersion.jitter import SHAKE_OFF, remove_motion, remove_motion_seen
+from wavealt.altimetry.dispersion.jitter import shake_noise, steady_tiles
 from wavealt.altimetry.dispersion.leakage import centroid_shifts, mode_shifts, plane_powers
 from wavealt.altimetry.dispersion.modeseries import (
     explained_energy,
@@ -343,12 +344,15 @@ class _Spectra:
             if centres is not None and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, with a rotation
                 # about the centre where they show one, removed (:mod:`.jitter`)
+                read = g  # the tiles' series as first read
                 if recorded is None:
                     g, shake, turn = remove_motion(g, kx[idx], ky[idx], centres)
                 else:
                     seen = _mean_free_modes(recorded, idx)[0]
                     g, shake, turn = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
                 if shake is not None:  # the tiles themselves moved back and taken again
+                    if SHAKE_OFF.get():  # the first reading one noise realisation off
+                        shake = shake + SHAKE_OFF.get() * shake_noise(read, kx[idx], ky[idx])
                     parts, g, planes, shake, _ = steady_tiles(
                         parts, lambda moved: _mean_free_modes(moved, idx), kx[idx], ky[idx],
                         centres, shake, turn, JITTER_PIXEL_PASSES)

@@ -5,8 +5,8 @@ the fit it steadied."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -20,7 +20,7 @@ from wavealt.camera import MAX_YAW_RATE_DPS
 
 class _Turn:
     """The yaw passes of :class:`DispersionAltimeter`, and a steadied fit's shake error
-    (uses ``_estimate``, ``_holds_shell``, ``_rate_uncertain``)."""
+    (uses ``_estimate``, ``_estimate_at``, ``_holds_shell``, ``_rate_uncertain``)."""
 
     def _turn_back(self, again: dict[str, Any], yaw: float, turned: tuple[float, float],
                    yaw_pass: int, still: Callable[[], DispersionResult]) -> DispersionResult:

@@ -47,8 +47,9 @@ from wavealt.altimetry.dispersion.constants import (
     JITTER_PIXEL_PASSES,
 )
 
-#: A signed multiple of one realisation of the first shake reading's noise
-#: (:func:`shake_noise`), added to that reading before the tiles are moved back
+#: A signed multiple of one realisation of the tiles' shake-reading noise
+#: (:func:`shake_noise`, on the series fitted: their normal scores where the shake itself is
+#: read on the recorded values), added to the first reading before the tiles are moved back
 #: (:meth:`~.spectra._Spectra._share_table`): set while a trusted steadied fit is made again
 #: to see how far its shake's own error moves it
 #: (:meth:`~.turn._Turn._shake_uncertain`); 0 otherwise.

@@ -344,7 +344,9 @@ class _Spectra:
             if centres is not None and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, with a rotation
                 # about the centre where they show one, removed (:mod:`.jitter`)
-                read = g  # the tiles' series as first read
+                # the series fitted (the normal scores where ``recorded`` is given, though the
+                # shake is then read on the recorded values): its noise is what SHAKE_OFF adds
+                read = g
                 if recorded is None:
                     g, shake, turn = remove_motion(g, kx[idx], ky[idx], centres)
                 else:

@@ -107,3 +107,33 @@ def test_a_trusted_steadied_fit_carries_its_shakes_error(altitude: float, seed: 
     assert "+steadied" not in level.signal
     again = _fit(alt, still, kw)
     assert (level.altitude_m, level.altitude_std_m) == (again.altitude_m, again.altitude_std_m)
+
+
+def test_the_noise_realisation_is_taken_on_the_series_the_shake_is_read_on(monkeypatch) -> None:
+    """The shake is read on the corner tiles' values as recorded while their normal scores
+    are fitted: the first reading taken one realisation off is off by the recorded series'
+    own noise (their contrast), which the normal scores' differs from."""
+    from wavealt.altimetry.dispersion import spectra
+
+    seen, given = [], []
+    real_read, real_steady = spectra.remove_motion_seen, spectra.steady_tiles
+
+    def read(series, recorded, kx, ky, centres):
+        out = real_read(series, recorded, kx, ky, centres)
+        seen.append((series, recorded, kx, ky, out[1]))
+        return out
+
+    def steady(parts, transform, kx, ky, centres, shake, *rest):
+        given.append(shake.copy())
+        return real_steady(parts, transform, kx, ky, centres, shake, *rest)
+
+    monkeypatch.setattr(spectra, "remove_motion_seen", read)
+    monkeypatch.setattr(spectra, "steady_tiles", steady)
+    clip, kw = _clip(4.0, 5, 0.5)
+    _fit(DispersionAltimeter(dispersion="gravity-capillary"), clip, kw, 1.0)
+    assert seen and len(given) == len(seen)
+    scores, recorded, kx, ky, shake = seen[0]
+    want = shake + shake_noise(recorded, kx, ky)
+    np.testing.assert_allclose(given[0], want, rtol=0, atol=1e-9)
+    # the normal scores' realisation is another: the test tells the two apart
+    assert _rms(shake_noise(scores, kx, ky) - shake_noise(recorded, kx, ky)) > 1e-3

@@ -48,8 +48,8 @@ from wavealt.altimetry.dispersion.constants import (
 )
 
 #: A signed multiple of one realisation of the tiles' shake-reading noise
-#: (:func:`shake_noise`, on the series fitted: their normal scores where the shake itself is
-#: read on the recorded values), added to the first reading before the tiles are moved back
+#: (:func:`shake_noise`, on the series the shake is read on: the recorded values where the
+#: normal scores are fitted), added to the first reading before the tiles are moved back
 #: (:meth:`~.spectra._Spectra._share_table`): set while a trusted steadied fit is made again
 #: to see how far its shake's own error moves it
 #: (:meth:`~.turn._Turn._shake_uncertain`); 0 otherwise.

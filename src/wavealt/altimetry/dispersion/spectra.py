@@ -344,14 +344,14 @@ class _Spectra:
             if centres is not None and t >= JITTER_MIN_FRAMES:
                 # a shaking camera: the image shift the corner tiles share, with a rotation
                 # about the centre where they show one, removed (:mod:`.jitter`)
-                # the series fitted (the normal scores where ``recorded`` is given, though the
-                # shake is then read on the recorded values): its noise is what SHAKE_OFF adds
+                # the series the shake is read on (the recorded values where ``recorded`` is
+                # given, not the normal scores fitted): its noise is what SHAKE_OFF adds
                 read = g
                 if recorded is None:
                     g, shake, turn = remove_motion(g, kx[idx], ky[idx], centres)
                 else:
-                    seen = _mean_free_modes(recorded, idx)[0]
-                    g, shake, turn = remove_motion_seen(g, seen, kx[idx], ky[idx], centres)
+                    read = _mean_free_modes(recorded, idx)[0]
+                    g, shake, turn = remove_motion_seen(g, read, kx[idx], ky[idx], centres)
                 if shake is not None:  # the tiles themselves moved back and taken again
                     if SHAKE_OFF.get():  # the first reading one noise realisation off
                         shake = shake + SHAKE_OFF.get() * shake_noise(read, kx[idx], ky[idx])

@@ -120,6 +120,7 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
     kept = np.abs(psi) >= JITTER_MIN_TURNS * 2.0 * np.pi / t
     w0 = power * (coherence**2 * kept)
     e = np.zeros((n, t - 1, 2), dtype=np.float32)
+    reach = math.pi / max(float(np.min(np.hypot(ax, ay))), 1e-6)  # px, a step's most
     for step in range(_TUKEY_STEPS + 1):  # least squares, then reweighted (Tukey)
         ex, ey = e[..., :1], e[..., 1:]
         r = _wrap(resid + ax * ex + ay * ey)
@@ -128,8 +129,10 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
             # the residuals' scale: the median absolute residual of every other mode
             scale = (np.float32(1.4826) * np.median(np.abs(r[..., ::2]), axis=-1, keepdims=True)
                      + np.float32(1e-12))
-            u = r / (_TUKEY * scale)
-            w = w0 * np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+            # Tukey's biweight, 0 from |u| = 1 on (clipped first: a scale near zero, where
+            # most modes' residuals vanish, must not overflow the square)
+            u = np.fmin(np.abs(r / (_TUKEY * scale)), np.float32(1.0))
+            w = w0 * (1.0 - u * u) ** 2
         base = r - ax * ex - ay * ey  # resid, unwrapped near e
         wx, wy = w * ax, w * ay
         sxx, sxy, syy = ((wx * ax).sum(-1, dtype=np.float64), (wx * ay).sum(-1, dtype=np.float64),
@@ -138,9 +141,11 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
         det = sxx * syy - sxy * sxy
         ok = det > 1e-12 * np.maximum(sxx * syy, 1e-300)
         safe = np.where(ok, det, 1.0)
-        e = np.where(ok[..., None], np.stack([(syy * bx - sxy * by) / safe,
-                                              (sxx * by - sxy * bx) / safe], -1),
-                     0.0).astype(np.float32)
+        solved = np.stack([(syy * bx - sxy * by) / safe, (sxx * by - sxy * bx) / safe], -1)
+        # a step longer than half the longest mode's wavelength is beyond what the phases
+        # hold (a near-singular solve, where the few modes still weighted point one way)
+        ok &= np.hypot(solved[..., 0], solved[..., 1]) <= reach
+        e = np.where(ok[..., None], solved, 0.0).astype(np.float32)
     e = e.astype(np.float64)
     e -= e.mean(axis=1, keepdims=True)
     shift[:, 1:] = np.cumsum(e, axis=1)

@@ -83,7 +83,10 @@ def tile_shake(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray
     """The image shift of every frame, ``(T, 2)`` px (x, y), of one tile's mean-free mode
     series ``series`` ``(T, modes)`` complex of wavenumbers ``kx, ky`` (rad/px), less its
     mean motion over the clip (no trend, mean zero); zeros where too few modes hold a
-    steady phase step."""
+    steady phase step.  A frame's step is not measured (0) where its least-squares solve is
+    singular, or longer than half the longest readable mode's wavelength, which the modes'
+    phases cannot hold (a near-singular solve, the modes still weighted all pointing one
+    way)."""
     return _shakes(series[None], kx, ky)[0]
 
 
@@ -120,7 +123,7 @@ def _shakes(series: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
     kept = np.abs(psi) >= JITTER_MIN_TURNS * 2.0 * np.pi / t
     w0 = power * (coherence**2 * kept)
     e = np.zeros((n, t - 1, 2), dtype=np.float32)
-    reach = math.pi / max(float(np.min(np.hypot(ax, ay))), 1e-6)  # px, a step's most
+    reach = math.pi / max(float(np.min(np.hypot(ax, ay))), 1e-6)  # px: the longest step read
     for step in range(_TUKEY_STEPS + 1):  # least squares, then reweighted (Tukey)
         ex, ey = e[..., :1], e[..., 1:]
         r = _wrap(resid + ax * ex + ay * ey)

@@ -3,8 +3,8 @@
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
         [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie]
-        [--camera rolling,blur,autoexposure] [--tell-readout] [--save-clips DIR]
-        [--self-check]
+        [--camera rolling,blur,autoexposure] [--tell-readout] [--depth-m D|LO,HI]
+        [--tell-depth] [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -13,7 +13,10 @@ The generator is written from the physics alone; it shares no code with ``waveal
   wind sea (Hasselmann et al. 1973; gamma = 1: Pierson & Moskowitz 1964) in wavenumber,
   ``S(k) = alpha/2 k^-3 exp(-5/4 (kp/k)^2) gamma^r``, ``kp = 0.731 g / U10^2``, spread as
   cos^2s(dtheta/2) (Longuet-Higgins et al. 1963), plus a weaker, younger sea running against
-  it.  Deep-water gravity-capillary dispersion ``omega^2 = g k + (0.074/1025) k^3``.
+  it.  Gravity-capillary dispersion ``omega^2 = (g k + (0.074/1025) k^3) tanh(k d)``: deep
+  water (``d`` infinite) unless ``--depth-m`` gives the water a finite depth (Lamb 1932,
+  §228 and §267), in which the wavenumber spectrum keeps its shape (Kitaigorodskii, Krasitskii
+  & Zaslavskii, J. Phys. Oceanogr. 1975: the saturation range in k does not depend on depth).
 * Motion, exact, as spectral phase: a component k has phase ``k.x - (omega + k.current) t``
   and the frame at t samples the sea at ``x + drift t``: the camera's velocity over the water
   is ``drift - current``.
@@ -102,9 +105,11 @@ CIE_CLEAR = (-1.0, -0.32, 10.0, -3.0, 0.45)  # a, b, c, d, e of type 12
 Vec = tuple[float, float]
 
 
-def omega(k: np.ndarray) -> np.ndarray:
-    """Deep-water gravity-capillary angular frequency, rad/s, of wavenumber k, rad/m."""
-    return np.sqrt(G * k + TENSION * k**3)
+def omega(k: np.ndarray, depth_m: float = math.inf) -> np.ndarray:
+    """Gravity-capillary angular frequency, rad/s, of wavenumber k, rad/m, in water
+    ``depth_m`` deep (inf: deep water)."""
+    deep = G * k + TENSION * k**3
+    return np.sqrt(deep if math.isinf(depth_m) else deep * np.tanh(k * depth_m))
 
 
 @dataclass(frozen=True)
@@ -142,6 +147,7 @@ class Scene:
     shutter_s: float = 0.0  # exposure time over which the radiance is averaged
     ae_rate: float = 0.0  # automatic exposure: share of the log gain error corrected a frame
     ae_jitter: float = 0.0  # ... and the sd of its log gain's jitter a frame
+    depth_m: float = math.inf  # the water's depth (inf: deep water)
 
     @property
     def focal_px(self) -> float:
@@ -159,12 +165,16 @@ class Scene:
 
 
 def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
-               sky: str = "gradient", camera: tuple[str, ...] = ()) -> Scene:
+               sky: str = "gradient", camera: tuple[str, ...] = (),
+               depth_m: tuple[float, float] | None = None) -> Scene:
     """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
     speed is its draw scaled to ``max_current``; the camera's tilt, even over the disc of
-    radius ``max_tilt_deg``, and its ``camera`` effects (:data:`CAMERA_EFFECTS`) from
-    streams of their own, so that the rest is the same; ``sky`` draws nothing)."""
+    radius ``max_tilt_deg``, its ``camera`` effects (:data:`CAMERA_EFFECTS`) and the water's
+    depth, log-uniform over ``depth_m = (lo, hi)`` (None: deep water), from streams of their
+    own, so that the rest is the same; ``sky`` draws nothing)."""
     r = np.random.default_rng(seed)
+    depth = (math.inf if depth_m is None else
+             math.exp(np.random.default_rng((seed, 5)).uniform(*np.log(depth_m))))
     t = np.random.default_rng((seed, 3))
     tilt, toward = max_tilt_deg * math.sqrt(t.random()), t.uniform(0, 2 * math.pi)
     c = np.random.default_rng((seed, 4))
@@ -194,7 +204,8 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
     jpeg = int(r.integers(70, 93)) if r.random() < 0.5 else None
     return Scene(seed, h, hfov, u10, gamma, spread, wind, share, kp_ratio, counter, drift,
                  current, sky_c, sky_grad, water, glinty, sun_z, sun_az, width, gain,
-                 exposure, full_well, read_e, jpeg, tilt, toward, sky, **effects)
+                 exposure, full_well, read_e, jpeg, tilt, toward, sky, **effects,
+                 depth_m=depth)
 
 
 def pixel_slopes(sc: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -294,7 +305,7 @@ def _slope_spectra(sc: Scene, amp: np.ndarray) -> tuple[np.ndarray, ...]:
     ``i k conj A(-k) / 2`` (along -k), and the phase rates' parts ``k.(drift - current)``
     and ``omega(k)``, rad/s (:func:`slope_frames`)."""
     kx, ky = wavenumbers(sc)
-    w = omega(np.hypot(kx, ky))
+    w = omega(np.hypot(kx, ky), sc.depth_m)
     ux, uy = sc.over_water
     adv = kx * ux + ky * uy
     grad = 0.5j * (kx + 1j * ky)
@@ -498,30 +509,38 @@ def set_size(size: int, working_px: int | None = None, fps: float = 30.0) -> Non
     _altimeter.cache_clear()
 
 
-@lru_cache(maxsize=1)
-def _altimeter() -> Any:
+@lru_cache(maxsize=4)
+def _altimeter(water_depth_m: float | None = None) -> Any:
+    """The altimeter the clips are read with; ``water_depth_m``: told the water's depth
+    (None: deep water, the altimeter's default)."""
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
     kw = {} if WORKING_PX is None else {"working_px": WORKING_PX}
-    return DispersionAltimeter(dispersion="gravity-capillary", **kw)
+    return DispersionAltimeter(dispersion="gravity-capillary", water_depth_m=water_depth_m,
+                               **kw)
 
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
                   max_tilt_deg: float = 0.0, sky: str = "gradient",
-                  camera: tuple[str, ...] = (), tell_readout: bool = False) -> list[dict]:
+                  camera: tuple[str, ...] = (), tell_readout: bool = False,
+                  depth_m: tuple[float, float] | None = None,
+                  tell_depth: bool = False) -> list[dict]:
     """One record per window of every row of clip ``seed``; ``tell_readout``: the altimeter
-    is given the rolling shutter's readout time."""
-    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera)
+    is given the rolling shutter's readout time; ``tell_depth``: the water's depth (drawn
+    from ``depth_m``, :func:`draw_scene`)."""
+    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m)
+    altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
+    truth["depth_m"] = None if math.isinf(sc.depth_m) else sc.depth_m  # (JSON has no inf)
     if save_dir:
         np.save(Path(save_dir) / f"clip{seed}.npy", frames)
         (Path(save_dir) / f"clip{seed}.json").write_text(json.dumps(truth, indent=1))
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
-                                  "ae_rate", "ae_jitter")}
+                                  "ae_rate", "ae_jitter", "depth_m")}
     base["saturated_share"] = float(np.mean(frames == 255))
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
                 "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
@@ -531,7 +550,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
         for start in range(0, FRAMES - n + 1, n):
             t0 = time.perf_counter()
             try:
-                res = _altimeter().estimate(frames[start:start + n], fps=FPS,
+                res = altimeter.estimate(frames[start:start + n], fps=FPS,
                                             focal_px=sc.focal_px, **velocity[mode],
                                             readout_s=sc.readout_s if tell_readout else 0.0)
                 out = {"est": res.altitude_m, "std": res.altitude_std_m,
@@ -755,6 +774,11 @@ def main() -> int:
     ap.add_argument("--working-px", type=int, default=None,
                     help="the altimeter's working scale (DispersionAltimeter(working_px=); "
                          "0: frames as they are; default: the altimeter's)")
+    ap.add_argument("--depth-m", default=None, metavar="D|LO,HI",
+                    help="water of finite depth, m: one depth for every clip, or each clip's "
+                         "drawn log-uniform over LO-HI; default deep water")
+    ap.add_argument("--tell-depth", action="store_true",
+                    help="give the altimeter the water's depth (water_depth_m)")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -774,6 +798,18 @@ def main() -> int:
         ap.error(f"--size must be within 64-2048 px; got {a.size}")
     if a.working_px is not None and a.working_px < 0:
         ap.error(f"--working-px must be >= 0; got {a.working_px}")
+    depth = None
+    if a.depth_m is not None:
+        try:
+            vals = [float(v) for v in a.depth_m.split(",")]
+        except ValueError:
+            vals = []
+        if (len(vals) not in (1, 2) or not all(math.isfinite(v) and v > 0 for v in vals)
+                or vals[0] > vals[-1]):
+            ap.error(f"--depth-m must be D or LO,HI with 0 < LO <= HI, m; got {a.depth_m!r}")
+        depth = (vals[0], vals[-1])
+    if a.tell_depth and depth is None:
+        ap.error("--tell-depth needs --depth-m")
     set_size(a.size, a.working_px, a.fps)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
@@ -782,7 +818,8 @@ def main() -> int:
         ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
-                  camera=camera, tell_readout=a.tell_readout)
+                  camera=camera, tell_readout=a.tell_readout, depth_m=depth,
+                  tell_depth=a.tell_depth)
     t0, records = time.perf_counter(), list[dict]()
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
@@ -795,7 +832,8 @@ def main() -> int:
                "rows": list(rows), "glinty_clips": len(glinty),
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
-               "tell_readout": a.tell_readout, "size": a.size, "working_px": a.working_px,
+               "tell_readout": a.tell_readout, "depth_m": a.depth_m,
+               "tell_depth": a.tell_depth, "size": a.size, "working_px": a.working_px,
                "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}

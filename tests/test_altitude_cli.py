@@ -190,6 +190,8 @@ def test_video_roundtrip_and_windows(tmp_path, run_cli, frames) -> None:
     (["--fps", "30", "--focal-px", "50", "--yaw-rate-dps", "500"],
      "--yaw-rate-dps must be a number within +-180; got 500.0"),
     (["--fps", "30", "--focal-px", "50", "--yaw-rate-dps", "nan"], "--yaw-rate-dps"),
+    (["--fps", "30", "--focal-px", "50", "--water-depth-m", "0"],
+     "--water-depth-m must be a positive number of metres; got 0.0"),
 ])
 def test_bad_arguments(tmp_path, run_cli, frames, argv_tail, match) -> None:
     write_frames_folder(tmp_path / "f", frames[0])
@@ -214,13 +216,15 @@ def test_missing_and_mixed_inputs(tmp_path, run_cli, frames) -> None:
     assert code == 2 and "bad.mp4" in err
 
 
-@pytest.mark.parametrize(("option", "kwarg"), [(("--readout-ms", "20"), {"readout_s": 0.02}),
-                                               (("--yaw-rate-dps", "20"), {"yaw_rate_dps": 20.0})])
-def test_a_camera_option_reaches_the_altimeter(tmp_path, run_cli, frames, option,
+@pytest.mark.parametrize(("option", "made", "kwarg"), [
+    (("--readout-ms", "20"), {}, {"readout_s": 0.02}),
+    (("--yaw-rate-dps", "20"), {}, {"yaw_rate_dps": 20.0}),
+    (("--water-depth-m", "0.02"), {"water_depth_m": 0.02}, {})])
+def test_a_camera_option_reaches_the_altimeter(tmp_path, run_cli, frames, option, made,
                                                 kwarg) -> None:
     """``--readout-ms`` is the altimeter's ``readout_s``, ``--yaw-rate-dps`` its
-    ``yaw_rate_dps``: the same window, the same altitude as the call made directly, and not
-    the one without it."""
+    ``yaw_rate_dps``, ``--water-depth-m`` the ``water_depth_m`` it is made with: the same
+    window, the same altitude as the call made directly, and not the one without it."""
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
     clip, focal_px = frames
@@ -230,8 +234,8 @@ def test_a_camera_option_reaches_the_altimeter(tmp_path, run_cli, frames, option
                               "gravity", "--velocity-mps", "0.2,0", *option])
     assert code == 0, err
     kw = {"fps": 30.0, "focal_px": focal_px, "velocity_mps": (0.2, 0.0)}
-    est = DispersionAltimeter(dispersion="gravity")
-    direct = est.estimate(read_input(tmp_path / "f"), **kwarg, **kw)
-    plain = est.estimate(read_input(tmp_path / "f"), **kw)
+    direct = DispersionAltimeter(dispersion="gravity", **made).estimate(
+        read_input(tmp_path / "f"), **kwarg, **kw)
+    plain = DispersionAltimeter(dispersion="gravity").estimate(read_input(tmp_path / "f"), **kw)
     assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
     assert direct.altitude_m != plain.altitude_m

@@ -142,3 +142,27 @@ def test_a_larger_camera_sees_the_same_scene_and_is_binned(tmp_path) -> None:
     assert not any("binned" in r["signal"] for r in runs["native"]["records"])
     bad = _run("--clips", "1", "--size", "4000")
     assert bad.returncode == 2 and "--size must be within 64-2048 px" in bad.stderr
+
+
+def test_shallow_water_changes_the_waves_and_not_the_scene(tmp_path) -> None:
+    """``--depth-m`` draws each clip's depth from a stream of its own (the scene is the one
+    drawn in deep water), records it, and slows the waves (other frames); ``--tell-depth``
+    needs it; a depth that is not positive is refused."""
+    truths = {}
+    for name, depth in (("deep", ()), ("shallow", ("--depth-m", "0.2,0.4", "--tell-depth"))):
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", *depth,
+                   "--save-clips", str(tmp_path / name), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        saved = json.loads(out.read_text())
+        truths[name] = json.loads((tmp_path / name / "clip5.json").read_text())
+        assert saved["records"][0]["depth_m"] == truths[name]["depth_m"]
+    assert truths["deep"]["depth_m"] is None and 0.2 <= truths["shallow"]["depth_m"] <= 0.4
+    drawn = set(truths["deep"]) - {"depth_m", "texture_dn", "noise_dn"}
+    assert {k: truths["deep"][k] for k in drawn} == {k: truths["shallow"][k] for k in drawn}
+    frames = [np.load(tmp_path / name / "clip5.npy") for name in ("deep", "shallow")]
+    assert frames[0].shape == frames[1].shape and not np.array_equal(*frames)
+    for args, message in ((("--tell-depth",), "--tell-depth needs --depth-m"),
+                          (("--depth-m", "0,1"), "--depth-m must be D or LO,HI")):
+        bad = _run("--clips", "1", *args)
+        assert bad.returncode == 2 and message in bad.stderr

@@ -83,6 +83,10 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
               help="Dispersion relation of the waves.  auto: a sequence folder of a wavealt "
                    "dataset (DATASET/<condition>/<sequence_id>/) takes its renderer's (gravity "
                    "for the paper preset), anything else real water's (gravity-capillary).")
+@click.option("--water-depth-m", type=float, default=None, metavar="D",
+              help="The water's depth, m, where it is shallow: waves longer than about twice "
+                   "the depth slow down, which a deep-water fit would read as a higher "
+                   "camera.  [default: deep water]")
 @click.option("--velocity-mps", default=None, metavar="VX,VY",
               help="The camera's velocity over the water, m/s, along image +x (columns) and +y "
                    "(rows); 0,0 when hovering over still water.  Without it (blind) the "
@@ -126,7 +130,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
              fps: float | None, force_fps: bool, frame_times: Path | None,
              focal_px: float | None, fov_deg: float | None, calibration: Path | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
-             window: int | None, step: int | None, dispersion: str, velocity_mps: str | None,
+             window: int | None, step: int | None, dispersion: str,
+             water_depth_m: float | None, velocity_mps: str | None,
              velocity_sigma_mps: float | None, readout_ms: float | None,
              yaw_rate_dps: float | None, camera_latency_ms: float | None, as_json: bool,
              out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
@@ -179,6 +184,9 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         msg = f"--readout-ms must be a finite number >= 0; got {readout_ms!r}"
         raise ValueError(msg)
     readout_s = (readout_ms or 0.0) / 1000.0
+    if water_depth_m is not None and not (math.isfinite(water_depth_m) and water_depth_m > 0):
+        msg = f"--water-depth-m must be a positive number of metres; got {water_depth_m!r}"
+        raise ValueError(msg)
     if yaw_rate_dps is not None:
         from wavealt.camera import MAX_YAW_RATE_DPS
 
@@ -192,7 +200,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         _altitude_live(live, live_format=live_format, duration=duration, focal_px=focal_px,
                        fov_deg=fov_deg, calibration=calibration, roll_deg=roll_deg,
                        pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
-                       dispersion=dispersion, velocity=velocity,
+                       dispersion=dispersion, water_depth_m=water_depth_m, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
                        yaw_rate_dps=yaw_rate_dps,
                        latency_s=None if camera_latency_ms is None else camera_latency_ms / 1e3,
@@ -223,7 +231,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         known = attitude is not None or (roll_deg, pitch_deg) != (None, None)
         summary, rows = altitude_series(
             frames, times_s=clip.times_s, focal_px=focal_px, window=window, step=step,
-            dispersion=dispersion, attitude="level" if known else "estimate", out=out,
+            dispersion=dispersion, water_depth_m=water_depth_m,
+            attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
             yaw_rate_dps=yaw_rate_dps,
@@ -241,7 +250,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                else f"NOT TRUSTED ({summary['reason'] or 'no reason given'})")
     click.echo(f"altitude: {summary['altitude_m']:.3f} +/- {summary['altitude_std_m']:.3f} m "
                f"(1 sigma), {verdict}")
-    click.echo(f"mode: {summary['mode']} ({dispersion} dispersion)")
+    water = "" if water_depth_m is None else f", water {water_depth_m:g} m deep"
+    click.echo(f"mode: {summary['mode']} ({dispersion} dispersion{water})")
     click.echo(f"camera velocity over the water: ({vx:+.2f}, {vy:+.2f}) m/s "
                "(image +x columns, +y rows)")
     if summary.get("attitude_deg") is not None:
@@ -271,6 +281,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    focal_px: float | None, fov_deg: float | None, calibration: Path | None,
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
+                   water_depth_m: float | None,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
                    readout_s: float, yaw_rate_dps: float | None, latency_s: float | None,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
@@ -304,7 +315,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         check_output_folder(out, (LIVE_FILE,), force=force)
         out.mkdir(parents=True, exist_ok=True)
     # frames levelled at an attitude given (fixed, or the vehicle's) are taken as level
-    est = {known: DispersionAltimeter(dispersion=dispersion,
+    est = {known: DispersionAltimeter(dispersion=dispersion, water_depth_m=water_depth_m,
                                       attitude="level" if known else "estimate")
            for known in (False, True)}
     # the compiled loops before the stream opens (on a cold cache about 10 s, which would

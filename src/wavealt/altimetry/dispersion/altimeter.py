@@ -40,8 +40,8 @@ from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.trust import _Trust
 from wavealt.altimetry.dispersion.turn import _Turn
+from wavealt.altimetry.dispersion.waves import omega, omega_and_dlog_k
 from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
-from wavealt.sim.sea.spectrum import GRAVITY_MPS2, SURFACE_TENSION_OVER_DENSITY
 
 
 class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Level,
@@ -54,6 +54,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         Dispersion relation of the water: ``"gravity-capillary"`` (``omega^2 = g k +
         (sigma/rho) k^3``), real water; ``"gravity"`` (``omega = sqrt(g k)``), the ``paper``
         simulator preset's.
+    water_depth_m : float, optional
+        Depth of the water, metres (None, the default: deep water).  Waves longer than about
+        twice the depth feel the bottom and slow down (:mod:`.waves`): over a shallow lagoon
+        or a harbour, fitted as deep water, the camera reads itself too high.
     deglint : {"clip", "median", "none"}
         Glint suppression before the analysis (:func:`deglint`).
     clip_sigma : float
@@ -121,7 +125,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         scale (``WORKING_PX``).  The result's ``signal`` says ``+binned2``; 0 never bins.
     """
 
-    def __init__(self, *, dispersion: str = "gravity-capillary", deglint: str = "clip",
+    def __init__(self, *, dispersion: str = "gravity-capillary",
+                 water_depth_m: float | None = None, deglint: str = "clip",
                  clip_sigma: float = 3.0, max_modes: int = 4000, min_kappa_bins: float = 2.5,
                  max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
                  altitude_range_m: tuple[float, float] = (0.5, 20.0),
@@ -148,6 +153,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         check_choice("dispersion", dispersion, DISPERSIONS)
         check_choice("deglint", deglint, DEGLINTS)
         self.dispersion = dispersion
+        self.water_depth_m = None if water_depth_m is None else check_finite_number(
+            "water_depth_m", water_depth_m, low=0.0, low_open=True)
         self.deglint = deglint
         self.clip_sigma = check_finite_number("clip_sigma", clip_sigma, low=0.0, low_open=True)
         self.max_modes = check_integer("max_modes", max_modes, low=8)
@@ -162,20 +169,16 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
 
     # -- physics ---------------------------------------------------------------------------
     def omega(self, k: np.ndarray) -> np.ndarray:
-        """Angular frequency (rad/s) of physical wavenumber ``k`` (rad/m), deep water."""
-        if self.dispersion == "gravity":
-            return np.sqrt(GRAVITY_MPS2 * k)
-        return np.sqrt(k * (GRAVITY_MPS2 + SURFACE_TENSION_OVER_DENSITY * (k * k)))
+        """Angular frequency (rad/s) of physical wavenumber ``k`` (rad/m), in water
+        ``water_depth_m`` deep (None: deep water; :mod:`.waves`)."""
+        return omega(k, self.dispersion, self.water_depth_m)
 
     def _omega_and_dlog(self, kappa: np.ndarray, focal_px: float,
                         altitude_m: float) -> tuple[np.ndarray, np.ndarray]:
         """``omega`` and ``d omega / d log(altitude)`` at pixel wavenumbers ``kappa``."""
-        k = kappa * focal_px / altitude_m
-        w = self.omega(k)
-        if self.dispersion == "gravity":
-            return w, -0.5 * w
-        # d omega/dk = (g + 3 T k^2) / (2 omega);  dk/dlog h = -k
-        return w, -k * (GRAVITY_MPS2 + 3.0 * SURFACE_TENSION_OVER_DENSITY * k**2) / (2.0 * w)
+        w, dlog_k = omega_and_dlog_k(kappa * focal_px / altitude_m, self.dispersion,
+                                     self.water_depth_m)
+        return w, -dlog_k  # k = kappa f / h: d log k / d log h = -1
 
     # -- public ------------------------------------------------------------------------
     def estimate(self, frames: Any, *, fps: float, focal_px: float,

@@ -102,10 +102,10 @@ class _Profile(_VelocityMap):
         ``omega`` grows with ``k``, so that altitude is ``focal_px kappa_q / k_pi``, with
         ``kappa_q`` the modes' ``ALIAS_MODE_FRACTION`` quantile and ``omega(k_pi) = pi fps``
         (bisection in log ``k``; gravity alone: ``k_pi = (pi fps)^2 / g``; cached per
-        dispersion relation and frame rate).
+        dispersion relation, water depth and frame rate).
         """
         log_k_pi = self.__dict__.setdefault("_log_k_pi", {})
-        key = (self.dispersion, float(fps))
+        key = (self.dispersion, self.water_depth_m, float(fps))
         if key not in log_k_pi:
             target = math.pi * fps
             lo_k, hi_k = math.log(1e-6), math.log(1e9)

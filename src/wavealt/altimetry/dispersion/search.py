@@ -80,7 +80,7 @@ class _Search:
         n_modes, n_psi = pair.shape
         to_bins = n_psi / (2.0 * np.pi)
         logh = np.atleast_1d(logh)
-        if self.dispersion == "gravity":
+        if self.dispersion == "gravity" and self.water_depth_m is None:
             om = self._gravity_bins(a, logh, fps, focal_px, to_bins)
         elif logh.size and bool(np.all(logh == logh[0])):
             om = self._omega_row(p, a, logh, fps, focal_px, to_bins)
@@ -116,7 +116,7 @@ class _Search:
         ``a`` at the altitude ``exp(logh[0])``.  The velocity searches ask for one altitude
         many times: each row is computed once per mode subset (whose lookup arrays ``p``
         holds for its life)."""
-        if self.dispersion == "gravity":
+        if self.dispersion == "gravity" and self.water_depth_m is None:
             return self._gravity_bins(a, logh[:1], fps, focal_px, to_bins)
         rows = p.setdefault("_omega_rows", {}).setdefault(id(a), {})
         key = (float(logh[0]), float(fps), float(focal_px))

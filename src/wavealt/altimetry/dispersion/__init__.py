@@ -3,8 +3,9 @@
 A nadir pinhole camera at ``altitude_m`` images a sea wave of physical wavenumber ``k``
 (rad/m) at pixel wavenumber ``kappa = k * altitude_m / focal_px`` (rad/px).  Deep-water
 waves obey ``omega^2 = g k + (sigma/rho) k^3`` (Lamb 1932, §266; the capillary term matters
-only below a few centimetres), and water moving at ``w`` relative to the camera Doppler
-shifts every mode, so the phase of mode ``kappa`` advances per frame by
+only below a few centimetres; over water ``d`` deep it takes the factor ``tanh(k d)``,
+:mod:`.waves`), and water moving at ``w`` relative to the camera Doppler shifts every mode,
+so the phase of mode ``kappa`` advances per frame by
 
     psi(kappa) = ( s * omega(|kappa| focal_px / altitude_m) + kappa . u ) / fps,    (1)
 

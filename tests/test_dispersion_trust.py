@@ -14,6 +14,7 @@ from contract import assert_honest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
 from wavealt.altimetry.dispersion.constants import TILE_SCATTER_LEVEL
+from wavealt.altimetry.dispersion.search import weighted_spread
 from wavealt.altimetry.dispersion.trust import tile_scatter
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -447,3 +448,28 @@ def test_a_measured_yaw_rates_uncertainty_joins_the_altitudes() -> None:
     low = est._rate_uncertain(_fit_result(10.0, 0.02, significance=100.0),
                               _fit_result(9.5, 0.02))  # either way
     assert not low.trusted
+
+
+def test_the_groups_spread_weighs_each_group_by_its_peaks_sharpness() -> None:
+    """Equal weights about the groups' mean give the standard error of the mean; a group
+    whose curve is flat (no weight) moves nothing however far off its peak lies, and the same
+    group with weight widens it; the weights' scale does not matter; where one group holds
+    nearly all the weight (fewer than two effective groups) the plain standard error stands."""
+    rng = np.random.default_rng(5)
+    ests = rng.normal(0.0, 0.03, 8)
+    plain = float(np.std(ests, ddof=1) / np.sqrt(8))
+    assert weighted_spread(ests, np.ones(8), float(ests.mean())) == pytest.approx(plain)
+    assert weighted_spread(ests, 7.0 * np.ones(8), float(ests.mean())) == pytest.approx(plain)
+    sharp = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0])
+    centre = float(ests[:7].mean())
+    base = weighted_spread(ests, sharp, centre)
+    far = ests.copy()
+    far[7] = 0.9  # a flat group's peak, far off
+    assert weighted_spread(far, sharp, centre) == base
+    assert weighted_spread(far, np.ones(8), centre) > 5 * base
+    lone = np.array([1.0, 1e-3, 1e-3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert weighted_spread(far, lone, float(ests[0])) == pytest.approx(
+        float(np.std(far, ddof=1) / np.sqrt(8)))
+    assert weighted_spread(far, np.zeros(8), 0.0) == pytest.approx(
+        float(np.std(far, ddof=1) / np.sqrt(8)))
+

@@ -39,7 +39,8 @@ from wavealt.altimetry.dispersion.constants import (
     TRUSTED_QUALITY,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
-from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak, significance
+from wavealt.altimetry.dispersion.search import _most_prominent, _parabolic_peak
+from wavealt.altimetry.dispersion.search import significance, weighted_spread
 from wavealt.altimetry.dispersion.signal import normal_scores
 from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners, _windowed_modes
 from wavealt.altimetry.dispersion.yaw import significant_turn
@@ -85,20 +86,19 @@ class _Trust:
         peak's prominence in the altitude scan (aided) or profile (blind).
 
         Aided, the groups' peaks are taken on the fine grid around the estimate.  Blind
-        (``fit["ridge"]``), they are taken along the whole profile, the velocity re-fitted at
-        every altitude: along the ridge drift trades against altitude, and a group whose
-        profile is flat puts its peak far off, so the spread measures how well the clip pins
-        the altitude (on the fine grid alone it was 2-20 times too small).  Where every
-        group sees the same flat ridge the spread stays small; the ridge's paired band
-        (:func:`~wavealt.altimetry.dispersion.profile.paired_band`) then sets the
-        uncertainty (``PAIRED_BAND_SD_FRACTION``).  The groups' spread and the floor (the
-        bias they share) are independent and add in quadrature; the band's term is
+        (``fit["ridge"]``), along the whole profile, the velocity re-fitted at every altitude
+        (on the fine grid alone the spread was 2-20 times too small), and each group counts
+        by its peak's curvature, as it counts in the summed profile whose peak the estimate
+        is (:func:`~.search.weighted_spread`): a flat group puts its peak far off and says
+        little.  Where every group sees the same flat ridge the spread stays small; the
+        ridge's paired band (:func:`~wavealt.altimetry.dispersion.profile.paired_band`) then
+        sets the uncertainty (``PAIRED_BAND_SD_FRACTION``).  The groups' spread and the floor
+        (the bias they share) are independent and add in quadrature; the band's term is
         calibrated as a whole standard deviation on its own (it covers the errors, bias
-        and scatter, at the 68 % rate), so it replaces their sum where it is larger rather
-        than adding to it, on clips long enough for that calibration to hold (as many
-        frames as ``BAND_CALIBRATED_MIN_FRAMES``, and as long at ``REFERENCE_FPS``); on
-        shorter ones, the systematic term.
-        """
+        and scatter, at the 68 % rate), so it replaces their sum where it is larger, on
+        clips long enough for that calibration to hold (as many frames as
+        ``BAND_CALIBRATED_MIN_FRAMES``, and as long at ``REFERENCE_FPS``); on shorter ones,
+        the systematic term."""
         logh, u = fit["logh"], fit["u"]
         vals = fit["vals"]
         n = vals.shape[1]
@@ -107,23 +107,25 @@ class _Trust:
         if profile:
             grid, ridge = fit["ridge"]
             sums = self._group_curves(labels, ridge)
-            ests = []
+            ests, curv = [], []
             for row in sums:
                 k = _most_prominent(row, grid, -np.inf, np.inf, near=logh,
                                    within=GROUP_PEAK_WITHIN_LOG)[0]
                 lo_k = min(max(k - 1, 0), grid.size - 3)
-                ests.append(_parabolic_peak(grid[lo_k:lo_k + 3], row[lo_k:lo_k + 3]))
-            ests = np.array(ests)
+                y = row[lo_k:lo_k + 3]
+                ests.append(_parabolic_peak(grid[lo_k:lo_k + 3], y))
+                curv.append(max(2.0 * y[1] - y[0] - y[2], 0.0))  # its peak's sharpness
+            ests, curv = np.array(ests), np.array(curv)
         else:
             sums = self._group_curves(labels, vals)
             ests = np.array([_parabolic_peak(fit["local"], row) for row in sums])
-        # statistical spread of the mode groups, plus a systematic floor: the bias the finite
-        # clip and the optics' non-linearity leave (0.2-0.4 % even on an ideal camera, a few
-        # per cent at 6-15 m on rendered frames; bench_dispersion.py), larger for short clips
+        # the groups' spread, plus a floor: the bias the clip and the optics leave (0.2-0.4 %
+        # on an ideal camera, a few % at 6-15 m rendered; bench_dispersion.py), short clips more
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (the band's)
-        spread = float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
+        spread = (weighted_spread(ests, curv, logh) if profile
+                  else float(np.std(ests, ddof=1) / math.sqrt(len(ests))))
         # the band's part of a standard deviation grows on shorter clips
         band = (PAIRED_BAND_SD_FRACTION
                 * max(1.0, BAND_CALIBRATED_MIN_FRAMES / t_ref) ** BAND_SHORT_CLIP_POWER

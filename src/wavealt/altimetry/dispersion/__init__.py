@@ -77,7 +77,8 @@ better than a still pattern carried rigidly across the image (phase steps ``-kap
 with no dispersion) does, which with a velocity given otherwise makes a sharp peak where
 the shell crosses that line.  The uncertainty is the spread of the peak
 over bands of wavenumber (the true shell gives one altitude at every wavenumber; the
-optics' products do not) plus a systematic term: a floor; blind, at least a part of the
+optics' products do not; blind, each band weighted by its peak's curvature, as in the summed
+profile) plus a systematic term: a floor; blind, at least a part of the
 stretch of the ridge that the peak does not beat by one standard error of its per-mode
 differences (a paired test: where drift trades against altitude the ridge is flat, and a
 small bias moves the peak along it); and, velocity known, the part of a periodogram bin

@@ -84,9 +84,10 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
                    "dataset (DATASET/<condition>/<sequence_id>/) takes its renderer's (gravity "
                    "for the paper preset), anything else real water's (gravity-capillary).")
 @click.option("--water-depth-m", type=float, default=None, metavar="D",
-              help="The water's depth, m, where it is shallow: waves longer than about twice "
-                   "the depth slow down, which a deep-water fit would read as a higher "
-                   "camera.  [default: deep water]")
+              help="The water's depth, m, where it is shallower than about a tenth of the "
+                   "altitude (a tidal flat, a beach): waves longer than about twice the depth "
+                   "slow down, which a deep-water fit reads as a higher camera.  "
+                   "[default: deep water]")
 @click.option("--velocity-mps", default=None, metavar="VX,VY",
               help="The camera's velocity over the water, m/s, along image +x (columns) and +y "
                    "(rows); 0,0 when hovering over still water.  Without it (blind) the "

@@ -56,8 +56,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         simulator preset's.
     water_depth_m : float, optional
         Depth of the water, metres (None, the default: deep water).  Waves longer than about
-        twice the depth feel the bottom and slow down (:mod:`.waves`): over a shallow lagoon
-        or a harbour, fitted as deep water, the camera reads itself too high.
+        twice the depth feel the bottom and slow down (:mod:`.waves`): over water shallower
+        than about a tenth of the altitude, fitted as deep water, the camera reads high.
     deglint : {"clip", "median", "none"}
         Glint suppression before the analysis (:func:`deglint`).
     clip_sigma : float

@@ -405,17 +405,17 @@ def _parabolic_peak(x: np.ndarray, y: np.ndarray) -> float:
     return float(x[j] + float(min(max(off, -1.0), 1.0)) * (x[1] - x[0]))
 
 
-def weighted_spread(ests: np.ndarray, weights: np.ndarray, centre: float) -> float:
+def weighted_spread(ests: np.ndarray, weights: np.ndarray | None, centre: float) -> float:
     """Standard error of ``centre``, an estimate that combines the mode groups' estimates
     ``ests`` with ``weights`` (each group's peak curvature: a sum of the groups' curves
     peaks at their curvature-weighted mean), from the groups' scatter about it: the
     sandwich (robust) variance ``sum w^2 (x - centre)^2`` with the weights normalised, times
     ``n_eff / (n_eff - 1)``, ``n_eff = 1 / sum w^2`` (Kish's effective number of groups).
-    Where fewer than two groups carry the weight (``n_eff < 2``) their agreement says
-    nothing, and the plain standard error of the mean over all groups stands."""
-    total = float(np.sum(weights))
-    w = weights / total if total > 0 else np.zeros_like(weights)
-    n_eff = 1.0 / float(np.sum(w * w)) if total > 0 else 0.0
+    Without weights, or where fewer than two groups carry them (``n_eff < 2``: their
+    agreement says nothing), the plain standard error of the mean over all groups."""
+    total = 0.0 if weights is None else float(np.sum(weights))
+    w = weights / total if total > 0 else None
+    n_eff = 1.0 / float(np.sum(w * w)) if w is not None else 0.0
     if n_eff < 2.0:
         return float(np.std(ests, ddof=1) / math.sqrt(len(ests)))
     return math.sqrt(float(np.sum(w * w * (ests - centre) ** 2)) * n_eff / (n_eff - 1.0))

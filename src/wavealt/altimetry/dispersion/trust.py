@@ -124,8 +124,7 @@ class _Trust:
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (the band's)
-        spread = (weighted_spread(ests, curv, logh) if profile
-                  else float(np.std(ests, ddof=1) / math.sqrt(len(ests))))
+        spread = weighted_spread(ests, curv if profile else None, logh)
         # the band's part of a standard deviation grows on shorter clips
         band = (PAIRED_BAND_SD_FRACTION
                 * max(1.0, BAND_CALIBRATED_MIN_FRAMES / t_ref) ** BAND_SHORT_CLIP_POWER

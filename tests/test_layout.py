@@ -92,3 +92,14 @@ def test_no_module_over_500_lines() -> None:
     long = {str(p.relative_to(ROOT)): n for p in ROOT.rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert long == {}
+
+
+def test_no_plain_result_file_over_100_kb() -> None:
+    # docs/results/README.md: a benchmark's JSON or CSV over 100 kB is stored gzipped, so
+    # that the working tree stays small enough to travel to a lent GPU machine (64 MiB)
+    results = ROOT.parent.parent / "docs" / "results"
+    if not results.is_dir():  # an installed package, without the repository around it
+        return
+    big = [p.name for p in results.iterdir()
+           if p.suffix in (".json", ".csv") and p.stat().st_size > 100_000]
+    assert not big, f"gzip these (docs/results/README.md): {big}"

@@ -14,6 +14,7 @@ from wavealt.altimetry.dispersion.attitude import (
     fit_tilt,
     measures_tilt,
     tile_centres,
+    unlevelled_tilt_var_log,
     unmeasured_tilt_var_log,
     without_odd_tile,
 )
@@ -168,6 +169,40 @@ def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:
     assert var == pytest.approx(0.0, abs=1e-15)
     one = unmeasured_tilt_var_log([(x0, y0, 0.0, 0.01)], focal, s)
     assert one == pytest.approx(2.25 * s**2 * (x0**2 + y0**2) / focal**2)
+
+
+def test_an_unlevelled_fit_reads_a_tilts_scales_within_a_tile_as_the_geometry_does() -> None:
+    """The variance a tilt the tiles allow adds to a fit of frames not levelled, read about
+    the tiles' weighted centroid within a tile's extent: tiles too vague to tell a tilt leave
+    the prior's; precise tiles of a tilted camera give the spread of the exact projection's
+    scales over a tile about its centre's; a precise tile outweighing the others moves the
+    centroid toward it; fewer than three tiles, None (:func:`unmeasured_tilt_var_log`)."""
+    focal, height, s = 206.0, 3.0, math.sin(math.radians(7.5))
+    tile = (102, 128)
+    centres = tile_centres((256, 320), tile)
+    within = (tile[1] ** 2, tile[0] ** 2)
+    vague = [(x, y, 0.0, 1e3) for x, y in centres]
+    assert unlevelled_tilt_var_log(vague, focal, s, tile) == pytest.approx(
+        2.25 * s**2 * sum(within) / (12 * focal**2), rel=1e-4)
+    assert unlevelled_tilt_var_log(vague[:2], focal, s, tile) is None
+    rot = tilt_rotation(6.0, -4.0)
+    tiles = [(x, y, math.log(_sea_scale(x, y, focal, rot, height)), 1e-4) for x, y in centres]
+    tilt = fit_tilt(tiles, focal)
+    var = unlevelled_tilt_var_log(tiles, focal, s, tile)
+    assert var == pytest.approx(2.25 * (tilt.a**2 * within[0] + tilt.b**2 * within[1])
+                                / (12 * focal**2), rel=1e-3)
+    # the exact projection's scales over a tile about its centre's: within a tenth
+    places = np.random.default_rng(5).uniform(-0.5, 0.5, (4000, 2)) * (tile[1], tile[0])
+    centre = math.log(_sea_scale(0.0, 0.0, focal, rot, height))
+    moved = [math.log(_sea_scale(x, y, focal, rot, height)) - centre for x, y in places]
+    assert math.sqrt(var) == pytest.approx(math.sqrt(float(np.mean(np.square(moved)))),
+                                           rel=0.1)
+    # one tile ten times as precise: the fit reads near it, where the tilt moves it more
+    heavy = [tiles[0][:3] + (1e-5,)] + tiles[1:]
+    x0, y0 = centres[0]
+    near = 2.25 * (tilt.a * x0 + tilt.b * y0) ** 2 / focal**2
+    assert unlevelled_tilt_var_log(heavy, focal, s, tile) == pytest.approx(var + near,
+                                                                           rel=0.05)
 
 
 def test_two_tiles_in_a_row_do_not_see_a_pitch_and_four_corners_see_any_tilt() -> None:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import gammainccinv
 
-from wavealt.altimetry.dispersion.constants import TILE_AGREEMENT_SIGMAS
+from wavealt.altimetry.dispersion.constants import TILE_AGREEMENT_SIGMAS, TILE_SCATTER_LEVEL
 
 #: Gauss-Newton steps of the tilted fit: from level, four tiles and tilts within 30
 #: degrees converge to 1e-9 in three to five.
@@ -202,6 +202,42 @@ def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     free = vec[:, value * prior_sd**2 < 1.0]
     part = free.T @ centre
     return 2.25 * prior_sd**2 * float(part @ part)
+
+
+def unlevelled_tilt_var_log(fits: list[tuple[float, float, float, float]], focal_px: float,
+                            prior_sd: float, tile: tuple[int, int]) -> float | None:
+    """Variance of ``log H`` that a tilt within what tiles ``fits`` (as for :func:`fit_tilt`,
+    each ``tile`` ``(h, w)`` px) allow adds to a fit of frames that were not levelled; None
+    for fewer than three tiles or no tilted fit (:func:`unmeasured_tilt_var_log` holds it).
+
+    To first order in the tilt, a place ``(x, y)`` of the frame reads ``log H - 1.5 (a x +
+    b y) / f`` (:func:`unmeasured_tilt_var_log`), and the fit reads about where its evidence
+    lies: the tiles' weighted centroid ``g`` (weights ``1 / sd^2``), give or take where in
+    each tile the waves show best, the same for all, spread evenly over a tile (second
+    moment ``G = g g^T + diag(w^2, h^2) / 12 f^2``).  A tilted camera sees the sea on the
+    side it looks toward at a steeper incidence, brighter and with more contrast (Fresnel's
+    reflectance, a sky brighter toward the horizon), so where noise hides the waves on the
+    other side every tile and the frame read the far side's scale while the tiles, too
+    imprecise, show no tilt to level by.  The tilt is the tiles' tilted fit
+    (:func:`fit_tilt`, a tile off both models set aside, :func:`without_odd_tile`) joined
+    to the prior ``N(0, prior_sd^2)`` on each of ``a`` and ``b``: mean ``m``, covariance
+    ``V``.  The variance is ``2.25 tr((m m^T + V) G)``; along a direction the tiles do not
+    measure, ``V`` is the prior's and the centroid's part is
+    :func:`unmeasured_tilt_var_log`'s.
+    """
+    kept = without_odd_tile(fits, focal_px, TILE_SCATTER_LEVEL)
+    tilt = fit_tilt(kept, focal_px)
+    if tilt is None:
+        return None
+    info = np.linalg.inv(tilt.cov[1:, 1:])
+    post = np.linalg.inv(info + np.eye(2) / prior_sd**2)
+    mean = post @ info @ np.array([tilt.a, tilt.b])
+    arr = np.asarray(kept, dtype=np.float64)
+    w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
+    centre = (w @ arr[:, :2]) / float(w.sum()) / focal_px
+    th, tw = tile
+    where = np.outer(centre, centre) + np.diag([tw * tw, th * th]) / (12.0 * focal_px**2)
+    return 2.25 * float(np.trace((np.outer(mean, mean) + post) @ where))
 
 
 def fit_tilt(fits: list[tuple[float, float, float, float]],

@@ -13,6 +13,7 @@ from wavealt.altimetry.dispersion.attitude import (
     chi2_quantile,
     cochran_q,
     tile_centres,
+    unlevelled_tilt_var_log,
     unmeasured_tilt_var_log,
 )
 from wavealt.altimetry.dispersion.constants import (
@@ -399,24 +400,24 @@ class _Trust:
                          res: DispersionResult, focal_px: float,
                          shape: tuple[int, int]) -> str | None:
         """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
-        levelled by the part of the tilt its corner tiles ``fits`` (:meth:`_tile_fits`)
-        cannot measure (:func:`.attitude.unmeasured_tilt_var_log`, the prior
-        ``ATTITUDE_PRIOR_SD_DEG``); why the fit is no longer trusted where it passed the
-        trust tests before and the wider interval fails the bar, else None.
-
-        Where only the tiles on one side of the frame hold the waves, a level camera and
-        one tilted toward the other side give the same tiles, at altitudes apart by the
-        scale that tilt makes there (a camera 13 degrees from nadir read 36 % high, at 1.4 %,
-        from the one corner whose sea glittered)."""
+        levelled by what a tilt its corner tiles ``fits`` (:meth:`_tile_fits`) do not rule
+        out moves it (the prior ``ATTITUDE_PRIOR_SD_DEG``): from three tiles on, the tilt
+        within their precision (:func:`.attitude.unlevelled_tilt_var_log`; one 8.7 degrees
+        from nadir over a faint sea read 16 % high at 2.5 %), else the part they cannot
+        measure (:func:`.attitude.unmeasured_tilt_var_log`; one 13 degrees from nadir read
+        36 % high, at 1.4 %, from the one corner whose sea glittered).  Why the fit is no
+        longer trusted where it passed the trust tests before and the wider interval fails
+        the bar, else None."""
         # the corner tiles' places (:meth:`_tile_fits` cuts them so)
         tile = _corner_shape(*shape, self.corner_tiles or 0.4)
-        var = unmeasured_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD,
-                                      tile_centres(shape, tile))
+        var = unlevelled_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD, tile)
+        if var is None:
+            var = unmeasured_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD,
+                                          tile_centres(shape, tile))
         if var <= 0.0:
             return None
         passed = self._distrust(res) is None
-        res.altitude_std_m = res.altitude_m * math.sqrt((res.altitude_std_m / res.altitude_m)
-                                                        ** 2 + var)
+        _widen(res, math.sqrt(var))
         if passed and self._distrust(res) is not None:
             if not fits:
                 where = "none of the 4 corner tiles holds the waves alone"

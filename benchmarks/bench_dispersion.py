@@ -214,12 +214,13 @@ def init_process() -> None:
     warm_up()
 
 
-def estimator(dispersion: str) -> Any:
+def estimator(dispersion: str, attitude: str = "estimate") -> Any:
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
-    if dispersion not in _ESTIMATORS:
-        _ESTIMATORS[dispersion] = DispersionAltimeter(dispersion=dispersion)
-    return _ESTIMATORS[dispersion]
+    if (dispersion, attitude) not in _ESTIMATORS:
+        _ESTIMATORS[dispersion, attitude] = DispersionAltimeter(dispersion=dispersion,
+                                                                attitude=attitude)
+    return _ESTIMATORS[dispersion, attitude]
 
 
 # -- sequences and their cache ----------------------------------------------------------------
@@ -354,16 +355,17 @@ def given_velocity(row: RowSpec, sc: Any) -> tuple[tuple[float, float] | None, f
 
 
 def timed_estimate(row: RowSpec, frames: np.ndarray, cfg: Any,
-                   velocity: tuple[float, float] | None, sigma: float) -> tuple[Any, float]:
+                   velocity: tuple[float, float] | None, sigma: float,
+                   attitude: str = "estimate") -> tuple[Any, float]:
     """``(result or the ValueError it raised, seconds)`` of one ``estimate`` call; the first
     call of a row in a process is repeated untimed first (imports, FFT plans)."""
-    est = estimator(row.dispersion)
+    est = estimator(row.dispersion, attitude)
 
     def call() -> Any:
         return est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=velocity,
                             velocity_sigma_mps=sigma)
 
-    key = (row.dispersion, row.frames, row.mode)
+    key = (row.dispersion, row.frames, row.mode, attitude)
     if key not in _WARMED:
         _WARMED.add(key)
         try:
@@ -406,10 +408,12 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
 
 def run_sequence(task: tuple) -> list[dict[str, Any]]:
     """Window records (one per condition) of sequence ``index`` of a row and seed: ``task``
-    is ``(row, seed, index, sequences, size, use_cache[, sensor])`` (:func:`sim_config`)."""
+    is ``(row, seed, index, sequences, size, use_cache[, sensor[, attitude]])``
+    (:func:`sim_config`; ``attitude``: :class:`DispersionAltimeter`'s)."""
     name, seed, index, sequences, size, use_cache, *rest = task
     row = row_of(name)
-    cfg = sim_config(row.preset, row.frames, seed, sequences, size, *rest)
+    attitude = rest[1] if len(rest) > 1 else "estimate"
+    cfg = sim_config(row.preset, row.frames, seed, sequences, size, *rest[:1])
     sc = cfg.sample_scenario(index)
     velocity, sigma, current = given_velocity(row, sc)
     base = base_record(row, seed, index, sc, current, velocity)
@@ -420,7 +424,7 @@ def run_sequence(task: tuple) -> list[dict[str, Any]]:
                 for c in CONDITIONS]
     out = []
     for c in CONDITIONS:
-        res, dt = timed_estimate(row, frames[c], cfg, velocity, sigma)
+        res, dt = timed_estimate(row, frames[c], cfg, velocity, sigma, attitude)
         out.append({**base, "condition": c, **result_fields(res, sc.altitude_m),
                     "latency_ms": 1e3 * dt})
     return out
@@ -570,8 +574,9 @@ def targets() -> dict[str, Any]:
 
 # -- running -----------------------------------------------------------------------------------
 def tasks_of(rows: Iterable[RowSpec], seeds: Sequence[int], sequences: int, size: int,
-             use_cache: bool, sensor: tuple[tuple[str, Any], ...] = ()) -> list[tuple]:
-    return [(r.name, s, i, sequences, size, use_cache, sensor)
+             use_cache: bool, sensor: tuple[tuple[str, Any], ...] = (),
+             attitude: str = "estimate") -> list[tuple]:
+    return [(r.name, s, i, sequences, size, use_cache, sensor, attitude)
             for r in rows for s in seeds for i in range(sequences)]
 
 
@@ -659,6 +664,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--fps", type=float, default=None,
                     help="frames per second of the simulated clips (default: the presets', 30); "
                          "a row keeps its frame count, so its clip lasts frames / FPS s")
+    ap.add_argument("--attitude", choices=("estimate", "level"), default="estimate",
+                    help="what the altimeter is told of the camera's attitude: nothing (it "
+                         "measures a tilt from the frame's corners), or that it looks straight "
+                         "down (a gimbal; DispersionAltimeter(attitude='level'))")
     ap.add_argument("--fov-deg", type=float, default=None,
                     help="the camera's horizontal field of view, degrees (default: the "
                          "presets', 60)")
@@ -708,7 +717,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_cache:
         check_cache(args.prune_cache)
     tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache,
-                     args.sensor)
+                     args.sensor, args.attitude)
     recs = run_tasks(tasks, args.workers)
     rows = {r.name: row_report(r, args.seeds, [x for x in recs if x["row"] == r.name])
             for r in args.rows}
@@ -724,6 +733,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "sequences_per_seed": args.sequences, "size_px": args.size,
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
+            "attitude": args.attitude,
             "realistic_camera": realistic_camera(args.sensor, args.size),
             "fps": camera.fps, "fov_deg": camera.fov_deg,
             "frames": "each row generates its sequences with frames=F directly",

@@ -28,6 +28,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--fps", "2"), "--fps must be within 5-240; got 2"),
     (("--fov-deg", "170"), "--fov-deg must be within 10-150; got 170"),
     (("--rows", "realistic-2-blind"), "--rows: unknown ['realistic-2-blind']"),
+    (("--attitude", "tilted"), "argument --attitude: invalid choice: 'tilted'"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = _run(*args)
@@ -79,6 +80,18 @@ def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic(
     assert realistic.sensor.compression == "none"
     assert bench.cache_folder(paper) != bench.cache_folder(bench.sim_config("paper", 10, 3,
                                                                             1, 64))
+
+
+def test_the_attitude_option_reaches_the_altimeter_of_every_task() -> None:
+    """``--attitude level`` (a camera told to look straight down) travels with each task to
+    the worker's altimeter; without it the altimeter measures the tilt, as a user's does."""
+    bench = _bench_module()
+    row = bench.ROW_BY_NAME["realistic-30-blind"]
+    for attitude in ("estimate", "level"):
+        (task,) = bench.tasks_of([row], [3], 1, 64, False, (), attitude)
+        assert task[-1] == attitude
+        assert bench.estimator(row.dispersion, attitude).attitude == attitude
+    assert bench.tasks_of([row], [3], 1, 64, False)[0][-1] == "estimate"
 
 
 def test_a_row_of_any_length_is_judged_against_the_contract_alone() -> None:

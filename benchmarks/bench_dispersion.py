@@ -408,12 +408,11 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
 
 def run_sequence(task: tuple) -> list[dict[str, Any]]:
     """Window records (one per condition) of sequence ``index`` of a row and seed: ``task``
-    is ``(row, seed, index, sequences, size, use_cache[, sensor[, attitude]])``
-    (:func:`sim_config`; ``attitude``: :class:`DispersionAltimeter`'s)."""
-    name, seed, index, sequences, size, use_cache, *rest = task
+    is ``(row, seed, index, sequences, size, use_cache, sensor, attitude)`` (:func:`tasks_of`;
+    ``sensor``: :func:`sim_config`'s, ``attitude``: :class:`DispersionAltimeter`'s)."""
+    name, seed, index, sequences, size, use_cache, sensor, attitude = task
     row = row_of(name)
-    attitude = rest[1] if len(rest) > 1 else "estimate"
-    cfg = sim_config(row.preset, row.frames, seed, sequences, size, *rest[:1])
+    cfg = sim_config(row.preset, row.frames, seed, sequences, size, sensor)
     sc = cfg.sample_scenario(index)
     velocity, sigma, current = given_velocity(row, sc)
     base = base_record(row, seed, index, sc, current, velocity)

@@ -232,9 +232,7 @@ def unlevelled_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     info = np.linalg.inv(tilt.cov[1:, 1:])
     post = np.linalg.inv(info + np.eye(2) / prior_sd**2)
     mean = post @ info @ np.array([tilt.a, tilt.b])
-    arr = np.asarray(kept, dtype=np.float64)
-    w = 1.0 / np.maximum(arr[:, 3], 1e-6) ** 2
-    centre = (w @ arr[:, :2]) / float(w.sum()) / focal_px
+    centre = _tilt_information(kept, focal_px)[1]
     th, tw = tile
     where = np.outer(centre, centre) + np.diag([tw * tw, th * th]) / (12.0 * focal_px**2)
     return 2.25 * float(np.trace((np.outer(mean, mean) + post) @ where))

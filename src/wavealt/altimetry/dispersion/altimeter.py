@@ -302,17 +302,17 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         ``yaw``, binned ``binning``; ``turn``: the turn its tiles show) finished and judged."""
         rolling = ROLLING.get()
         if rolling is not None and res.n_modes > 0:
-            # A rolling shutter: fitted again, each row's delay undone and each mode's step
-            # unwrapped at the first fit's Doppler line (_rolled_share_table; caller resets)
+            # A rolling shutter: fitted again, each row's delay undone (_rolled_share_table)
             scale = focal_px / (res.altitude_m * fps)  # m/s -> px/frame
             ROLLING.set((rolling[0], tuple(v * scale for v in res.camera_velocity_mps)))
             res, signal, p = self._fit(arr, fps, focal_px, prior, lattice)
-        # the tiles: to measure a tilt (a shell's peak, however wide its interval), and to
-        # judge a fit that passes the other trust tests
+        # the tiles: to measure a tilt (over the whole range where the fit holds no shell's
+        # peak: a tilt may have smeared it, _level), and to judge a fit that passes the rest
         level = self.attitude == "level"
         fit_focal, fit_signal = focal_px, signal  # of the view fitted (a levelled view's own)
-        wanted = self._distrust(res) is None if level else self._holds_shell(res)
-        fits = self._tile_fits(signal, res, fps, focal_px, p) if wanted else []
+        wanted = self._distrust(res) is None if level else self._holds_shell(res, 1, False)
+        fits = (self._tile_fits(signal, res, fps, focal_px, p, not self._holds_shell(res))
+                if wanted else [])
         if not level:
             res, fits, p, fit_focal, fit_signal = self._level(arr, fps, focal_px, prior, res,
                                                               fits, p, lattice, signal)

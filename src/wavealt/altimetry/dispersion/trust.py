@@ -287,24 +287,25 @@ class _Trust:
                                 tile_centres(signal.shape[1:], shape), fps, with_sd)
 
     def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                   focal_px: float, p: dict[str, Any] | None = None
-                   ) -> list[tuple[float, float, float, float]]:
+                   focal_px: float, p: dict[str, Any] | None = None,
+                   whole_range: bool = False) -> list[tuple[float, float, float, float]]:
         """Each corner tile of ``signal`` fitted alone at the fit's velocity (m/s; the tile's
         own altitude scales it to pixels), with the aided search of :meth:`_aided` on a
         quarter of the modes: ``(x, y, log altitude, sd_log)`` of every tile whose fit holds
         a shell's peak (significant and prominent, as :meth:`_distrust` asks, however wide
         its interval), ``(x, y)`` its centre in px from the frame's centre.  A tile is
-        searched within ``TILE_RANGE_FACTOR`` of the fit's altitude: a tilt within the
-        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell.
+        searched within ``TILE_RANGE_FACTOR`` of the fit's altitude (a tilt within the
+        tool's reach moves a tile's scale by far less, and a peak beyond is not the shell),
+        or over the whole range (``whole_range``: a fit without a shell's peak), as finely.
         ``p``: the fit's periodogram of ``signal`` on the same corner tiles, whose mode
         series the tiles take where they hold the tile's modes, instead of transforming the
         tiles again (the same bits)."""
         t = signal.shape[0]
-        # searched within TILE_RANGE_FACTOR of the fit's altitude, as finely as the whole range
         lo, hi = self.altitude_range_m
         near = copy.copy(self)
-        near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
-                                 min(hi, res.altitude_m * TILE_RANGE_FACTOR))
+        if not whole_range:
+            near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
+                                     min(hi, res.altitude_m * TILE_RANGE_FACTOR))
         near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
                                                           / near.altitude_range_m[0])
                                    / math.log(hi / lo)))
@@ -336,15 +337,15 @@ class _Trust:
         return fits
 
     @staticmethod
-    def _holds_shell(res: DispersionResult, scale: float = 1.0) -> bool:
+    def _holds_shell(res: DispersionResult, scale: float = 1.0, prominent: bool = True) -> bool:
         """Whether a fit found a shell's peak: significant and prominent (the first two of
-        :meth:`_distrust`'s tests), however wide its interval.  ``scale``: of the
-        significance bar, for a fit on a part of the modes (a corner tile, :meth:`_tile_fits`):
+        :meth:`_distrust`'s tests; not ``prominent``: the first), however wide its interval.
+        ``scale``: of the bar, for a fit on a part of the modes (a corner tile, :meth:`_tile_fits`):
         the score's noise falls as one over the square root of the modes averaged, so the
         same evidence in each mode stands that much less far above it (a tile on 1000 of
         the fit's 2598 modes, 0.62 of the bar)."""
         return (res.significance >= MIN_SIGNIFICANCE * scale
-                and res.quality >= TRUSTED_QUALITY)
+                and (res.quality >= TRUSTED_QUALITY or not prominent))
 
     def _tile_verdict(self, fits: list[tuple[float, float, float, float]],
                       res: DispersionResult) -> str | None:
@@ -457,8 +458,7 @@ class _Trust:
         res.trusted = reason is None
         res.reason = reason
         if not res.trusted:
-            # a window that cannot be measured says so in its uncertainty too: its
-            # 3-sigma interval spans the whole altitude range searched
+            # a window that cannot be measured says so in its 3-sigma interval: the range
             res.altitude_std_m = max(res.altitude_std_m, (hi - lo) / 3.0)
         return res
 

@@ -98,7 +98,9 @@ pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles
 fit that model significantly better than one scale, and within their noise (one tile's
 wrong peak fits neither), the frames are levelled at the tilt
 (:class:`wavealt.camera.NadirView`, :mod:`.levelling`) and fitted again, and the result
-records the attitude.
+records the attitude.  A tilt of 10-15 degrees can smear the whole frame's shell below a
+prominent peak; the tiles, each seeing a fraction of the smear, are then searched over the
+whole range, and where the fit as it stands holds no shell the levelled view is read.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt
 toward the other side (nor any tilt where no tile holds them alone), and with the attitude
 unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those

@@ -26,7 +26,7 @@ from wavealt.altimetry.dispersion.trust import tile_scatter
 
 
 #: Why a levelled fit is not trusted where the levelled view's tiles do not confirm the tilt
-#: and the fit of the frames as given could not be trusted either.
+#: and the fit of the frames as given held no shell's peak either.
 UNCONFIRMED_TILT = ("the frames were levelled at the tilt their corner tiles showed, and the "
                     "levelled view's tiles do not confirm it (give the camera's attitude)")
 
@@ -53,12 +53,12 @@ class _Level:
         of a pinhole centred on the frame) and fitted again, and the levelled view's own
         tiles measure what tilt is left, up to ``ATTITUDE_PASSES`` times.  A tilt beyond
         ``camera.MAX_TILT_DEG`` ends the passes, and so does a levelled fit without a
-        shell's peak where the fit before it passed :meth:`_distrust`'s tests or where it
-        holds no wave signal at all.  A tilt can smear the shell away (10-15 degrees change
-        the scale by 20-30 % across the frame): a fit with wave signal but no prominent peak
-        has its tiles searched over the whole range (each sees a fraction of the smear,
-        :meth:`_tile_fits`), and the view they call level is read, with or without a
-        prominent peak of its own.  A tile that no attitude explains measures no tilt
+        shell's peak where the fit before it held one or where it holds no wave signal.
+        A tilt can smear the shell away (10-15 degrees change the scale by 20-30 % across
+        the frame): a fit with wave signal but no prominent peak has its tiles searched
+        over the whole range (each sees a fraction of the smear, :meth:`_tile_fits`), and
+        the view they call level is read (not trusted without a prominent peak of its
+        own).  A tile that no attitude explains measures no tilt
         (:func:`.attitude.without_odd_tile`).  The tilt's uncertainty joins the levelled
         fit's: the focal length of the level view is ``f cos(tilt)``, and where the tiles
         are not placed and weighted symmetrically their mean moves with the tilt
@@ -69,8 +69,8 @@ class _Level:
         measuring it along its direction better than the prior ``ATTITUDE_PRIOR_SD_DEG``,
         :func:`.attitude.measures_tilt`): a tilt that one tile's wrong peak made does not
         level the frames, and those are judged as given (``docs/dispersion.md``) where
-        their fit passed :meth:`_distrust`'s tests; where it did not, the levelled fit is
-        kept, not trusted (``UNCONFIRMED_TILT``).
+        their fit held a shell's peak; where it held none, the levelled fit is kept, not
+        trusted (``UNCONFIRMED_TILT``).
         """
         from wavealt.camera import MAX_TILT_DEG, NadirView, pinhole, tilt_rotation
 
@@ -90,7 +90,7 @@ class _Level:
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
             new, s_new, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
             shell = self._holds_shell(new)
-            if not shell and (self._distrust(res) is None
+            if not shell and (self._holds_shell(res)
                               or not self._holds_shell(new, prominent=False)):
                 break
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
@@ -104,9 +104,9 @@ class _Level:
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
             # made (two in a row, a tilt across it): the tilt measured was not shown to be
             # the frames' (one tile's peak off the shell, its sigma too small) and the frames
-            # are judged as given, unless their fit could not be trusted either: then the
+            # are judged as given, unless their fit held no shell's peak either: then the
             # view the tiles call level is read, and not trusted
-            if self._distrust(given[0]) is None:
+            if self._holds_shell(given[0]):
                 return given
             if self._holds_shell(res):
                 res.reason = res.reason or UNCONFIRMED_TILT

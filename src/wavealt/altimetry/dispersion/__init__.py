@@ -95,8 +95,9 @@ A camera that does not look straight down sees the sea at a scale that changes a
 frame.  The four corner tiles, each fitted alone, measure it: over a level sea a pinhole
 tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f / d_z)^1.5`` at
 pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles' altitudes
-fit that model significantly better than one scale, and within their noise (one tile's
-wrong peak fits neither), the frames are levelled at the tilt
+fit that model significantly better than one scale, and within their noise and the
+oblique view's stretch (:func:`.attitude.stretch_var_log`; one tile's wrong peak fits
+neither), the frames are levelled at the tilt
 (:class:`wavealt.camera.NadirView`, :mod:`.levelling`) and fitted again, and the result
 records the attitude.  A tilt of 10-15 degrees can smear the whole frame's shell below a
 prominent peak; the tiles, each seeing a fraction of the smear, are then searched over the

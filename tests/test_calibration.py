@@ -10,7 +10,9 @@ import cv2
 import numpy as np
 import pytest
 
-from wavealt.altimetry.dispersion import DispersionAltimeter
+from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
+from wavealt.altimetry.dispersion.attitude import tile_centres
+from wavealt.altimetry.dispersion.levelling import UNCONFIRMED_TILT
 from wavealt.camera import (
     Calibration,
     NadirView,
@@ -189,6 +191,36 @@ def test_a_tilt_that_smears_the_shell_away_is_still_measured_and_levelled(h) -> 
     err = abs(res.altitude_m / h - 1)
     assert err < 0.10 and err * h <= 3.0 * res.altitude_std_m, res
     assert err < abs(as_level.altitude_m / h - 1)
+
+
+def _fit_of(h: float, quality: float) -> DispersionResult:
+    return DispersionResult(altitude_m=h, altitude_std_m=0.02 * h, camera_velocity_mps=(0.0, 0.0),
+                            quality=quality, trusted=False, reason=None, mode="blind",
+                            frames=3, n_modes=100, significance=100.0)
+
+
+@pytest.mark.parametrize("given_holds_shell", [True, False])
+def test_a_tilt_the_levelled_views_tiles_do_not_confirm(monkeypatch, given_holds_shell) -> None:
+    """The corner tiles show a 12-degree pitch and the frames are levelled at it; the
+    levelled view's two tiles that hold the waves lie in one row and cannot see a pitch.  A
+    fit of the frames as given that held a shell's peak is read as it was; one that held
+    none gives way to the levelled view, read, not trusted, and saying why."""
+    focal, est = 268.5, DispersionAltimeter()
+    b = math.sin(math.radians(12.0))
+    tiles = [(x, y, math.log(6.0) - 1.5 * math.log(b * y / focal + math.sqrt(1 - b * b)), 0.02)
+             for x, y in tile_centres((256, 256), (100, 100))]
+    levelled = _fit_of(5.0, 0.8)
+    frames = np.zeros((3, 256, 256), np.float32)
+    monkeypatch.setattr(est, "_fit", lambda *a, **k: (levelled, frames, {}))
+    monkeypatch.setattr(est, "_tile_fits", lambda *a, **k: [(-78.0, -78.0, math.log(5.0), 0.02),
+                                                            (78.0, -78.0, math.log(5.0), 0.02)])
+    given = _fit_of(6.0, 0.8 if given_holds_shell else 0.05)
+    res = est._level(frames, 30.0, focal, None, given, tiles, {}, signal=frames)[0]
+    if given_holds_shell:
+        assert res is given and res.attitude_deg is None and res.reason is None
+    else:
+        assert res is levelled and res.signal.endswith("+levelled"), res
+        assert abs(res.attitude_deg[1]) > 8.0 and res.reason == UNCONFIRMED_TILT
 
 
 def test_a_level_camera_is_not_levelled() -> None:

@@ -310,7 +310,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         # peak: a tilt may have smeared it, _level), and to judge a fit that passes the rest
         level = self.attitude == "level"
         fit_focal, fit_signal = focal_px, signal  # of the view fitted (a levelled view's own)
-        wanted = self._distrust(res) is None if level else self._holds_shell(res, 1, False)
+        wanted = self._distrust(res) is None if level else self._holds_shell(res, prominent=False)
         fits = (self._tile_fits(signal, res, fps, focal_px, p, not self._holds_shell(res))
                 if wanted else [])
         if not level:

@@ -212,8 +212,8 @@ def test_a_tilt_the_levelled_views_tiles_do_not_confirm(monkeypatch, given_holds
     levelled = _fit_of(5.0, 0.8)
     frames = np.zeros((3, 256, 256), np.float32)
     monkeypatch.setattr(est, "_fit", lambda *a, **k: (levelled, frames, {}))
-    monkeypatch.setattr(est, "_tile_fits", lambda *a, **k: [(-78.0, -78.0, math.log(5.0), 0.02),
-                                                            (78.0, -78.0, math.log(5.0), 0.02)])
+    monkeypatch.setattr(est, "_corner_fits", lambda *a, **k: (
+        [(-78.0, -78.0, math.log(5.0), 0.02), (78.0, -78.0, math.log(5.0), 0.02)], []))
     given = _fit_of(6.0, 0.8 if given_holds_shell else 0.05)
     res = est._level(frames, 30.0, focal, None, given, tiles, {}, signal=frames)[0]
     if given_holds_shell:
@@ -221,6 +221,42 @@ def test_a_tilt_the_levelled_views_tiles_do_not_confirm(monkeypatch, given_holds
     else:
         assert res is levelled and res.signal.endswith("+levelled"), res
         assert abs(res.attitude_deg[1]) > 8.0 and res.reason == UNCONFIRMED_TILT
+
+
+@pytest.mark.parametrize("held", [2, 4])
+def test_faint_tiles_help_to_measure_a_tilt_only_where_too_few_tiles_hold_the_shell(
+        monkeypatch, held) -> None:
+    """A camera pitched 12 degrees: where only the two far tiles hold the shell, the two
+    near ones, faint (weak: :meth:`_corner_fits`), join them to measure the pitch, and the
+    frames are levelled at it; where all four hold the shell and read one scale, weak tiles
+    that read a pitch level nothing.  The weak tiles judge nothing: the levelled fit's tiles
+    are those that hold the shell."""
+    focal, est = 268.5, DispersionAltimeter()
+    b = math.sin(math.radians(12.0))
+    centres = tile_centres((256, 256), (100, 100))
+    pitched = [(x, y, math.log(6.0) - 1.5 * math.log(b * y / focal + math.sqrt(1 - b * b)),
+                0.03) for x, y in centres]
+    far = [t for t in pitched if t[1] < 0]  # the pitch reads these high
+    near = [t for t in pitched if t[1] > 0]
+    level = [(x, y, math.log(6.0), 0.03) for x, y in centres]
+    levelled = _fit_of(5.0, 0.8)
+    frames = np.zeros((3, 256, 256), np.float32)
+    seen = [(x, y, math.log(5.0), 0.02) for x, y in centres]
+    monkeypatch.setattr(est, "_fit", lambda *a, **k: (levelled, frames, {}))
+    monkeypatch.setattr(est, "_corner_fits", lambda *a, **k: (seen, []))
+    given = _fit_of(6.0, 0.8)
+    fits = far if held == 2 else level
+    res, tiles = est._level(frames, 30.0, focal, None, given, fits, {}, signal=frames,
+                            weak=near)[:2]
+    if held == 2:
+        assert res is levelled and res.signal.endswith("+levelled"), res
+        assert abs(res.attitude_deg[1] - 12.0) < 1.0 and abs(res.attitude_deg[0]) < 1.0
+        assert tiles is seen and res.reason is None
+    else:
+        assert res is given and res.attitude_deg is None and tiles is level
+    # without the weak tiles the two far ones cannot measure the pitch
+    again = _fit_of(6.0, 0.8)
+    assert est._level(frames, 30.0, focal, None, again, far, {}, signal=frames)[0] is again
 
 
 def test_a_level_camera_is_not_levelled() -> None:

@@ -92,16 +92,18 @@ removed with the colour (chroma) signal.  A rolling shutter whose readout time i
 back by the delay at its own phase step, unwrapped at the first fit's Doppler line.
 
 A camera that does not look straight down sees the sea at a scale that changes across the
-frame.  The four corner tiles, each fitted alone, measure it: over a level sea a pinhole
-tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f / d_z)^1.5`` at
-pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the tiles' altitudes
-fit that model significantly better than one scale, and within their noise and the
+frame.  The four corner tiles, each fitted alone (:mod:`.tiles`), measure it: over a level
+sea a pinhole tilted so that the sea's normal is ``(a, b, c)`` in its axes reads ``H (f /
+d_z)^1.5`` at pixel ``(x, y)``, ``d_z = a x + b y + c f`` (:mod:`.attitude`).  Where the
+tiles' altitudes fit that model significantly better than one scale, and within their noise and the
 oblique view's stretch (:func:`.attitude.stretch_var_log`; one tile's wrong peak fits
 neither), the frames are levelled at the tilt
 (:class:`wavealt.camera.NadirView`, :mod:`.levelling`) and fitted again, and the result
 records the attitude.  A tilt of 10-15 degrees can smear the whole frame's shell below a
 prominent peak; the tiles, each seeing a fraction of the smear, are then searched over the
 whole range, and where the fit as it stands holds no shell the levelled view is read.
+Where fewer than three tiles hold the shell, tiles whose peak stands out less (the near side
+of a tilted camera's sea is faint) help to measure the tilt, and judge nothing.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt
 toward the other side (nor any tilt where no tile holds them alone), and with the attitude
 unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those

@@ -1,5 +1,4 @@
-"""The altimeter: parameters, the physics, and the path through the stages from frames to a
-judged result."""
+"""The altimeter: parameters, the physics, and the path through the stages to a result."""
 
 from __future__ import annotations
 
@@ -38,14 +37,15 @@ from wavealt.altimetry.dispersion.signal import _has_texture, _Signal, bin_frame
 from wavealt.altimetry.dispersion.signal import working_bin
 from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
+from wavealt.altimetry.dispersion.tiles import _Tiles
 from wavealt.altimetry.dispersion.trust import _Trust
 from wavealt.altimetry.dispersion.turn import _Turn
 from wavealt.altimetry.dispersion.waves import omega, omega_and_dlog_k
 from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 
 
-class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Level,
-                          _Turn):
+class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, _Tiles,
+                          _Level, _Turn):
     """Altitude, its uncertainty and the water's velocity from frames, by wave dispersion.
 
     Parameters
@@ -311,11 +311,11 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         level = self.attitude == "level"
         fit_focal, fit_signal = focal_px, signal  # of the view fitted (a levelled view's own)
         wanted = self._distrust(res) is None if level else self._holds_shell(res, prominent=False)
-        fits = (self._tile_fits(signal, res, fps, focal_px, p, not self._holds_shell(res))
-                if wanted else [])
+        fits, weak = (self._corner_fits(signal, res, fps, focal_px, p,
+                                        not self._holds_shell(res)) if wanted else ([], []))
         if not level:
             res, fits, p, fit_focal, fit_signal = self._level(arr, fps, focal_px, prior, res,
-                                                              fits, p, lattice, signal)
+                                                              fits, p, lattice, signal, weak)
             if res.attitude_deg is None:
                 res.reason = (self._unmeasured_tilt(fits, res, focal_px, arr.shape[1:3])
                               or res.reason)

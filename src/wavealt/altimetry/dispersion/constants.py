@@ -252,6 +252,21 @@ ATTITUDES = ("estimate", "level")
 #: fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 % (realistic
 #: preset, 60 degrees of view), and a tile's peak twice as far is not the shell.
 TILE_RANGE_FACTOR = 2.0
+#: Most that a tilt within the tool's reach moves a corner tile's scale from the fit's:
+#: 15 degrees toward a corner 0.35 f off both axes gives it 1.30 times the scale at the
+#: centre, the opposite corner 0.87 times, and the fit reads between them.  A weak tile
+#: (:data:`WEAK_TILE_BAR`) read farther from the fit is not taken to measure a tilt.
+TILT_REACH_FACTOR = 1.35
+#: A corner tile whose peak is prominent but stands above random phase steps by only this
+#: share of a tile's bar (:meth:`~.tiles._Tiles._corner_fits`) is a weak tile: it helps to
+#: measure a tilt where fewer than three tiles hold the shell, and judges nothing.  A tilted
+#: camera sees the near side of the sea steeply, darker and with less contrast; on the
+#: independent generator's tilt tuning seeds 1000 / 2000 (5-15 degrees, 1-s blind), 26 of
+#: the 100 windows with wave signal had fewer than three tiles over the bar and were read
+#: unlevelled, +13 to +20 % (median), and many of their other tiles read the scale a tilt
+#: predicts at 0.7-0.9 of the bar.  Half the bar is still 7-15 standard deviations above
+#: random phase steps; set a priori, not tuned.
+WEAK_TILE_BAR = 0.5
 #: Least significance of the shell's peak: its score above the mean that random phase
 #: steps would give, in units of that score's standard deviation (each mode's share
 #: averaged over all phase steps; :meth:`DispersionAltimeter._result`).  Uniform RGB noise,

@@ -22,6 +22,7 @@ from wavealt.altimetry.dispersion.constants import (
     TILE_SCATTER_LEVEL,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
+from wavealt.altimetry.dispersion.tiles import Tile
 from wavealt.altimetry.dispersion.trust import tile_scatter
 
 
@@ -33,14 +34,15 @@ UNCONFIRMED_TILT = ("the frames were levelled at the tilt their corner tiles sho
 
 class _Level:
     """The levelling pass of :class:`DispersionAltimeter` (uses ``_fit``, ``_holds_shell``
-    and ``_tile_fits``)."""
+    and ``_corner_fits``)."""
 
     def _level(self, arr: np.ndarray, fps: float, focal_px: float,
                prior: tuple[float, float, float] | None, res: DispersionResult,
-               fits: list[tuple[float, float, float, float]], p: dict[str, Any] | None,
-               lattice: int = BLOCK_PERIOD_PX, signal: np.ndarray | None = None
-               ) -> tuple[DispersionResult, list[tuple[float, float, float, float]],
-                          dict[str, Any] | None, float, np.ndarray | None]:
+               fits: list[Tile], p: dict[str, Any] | None,
+               lattice: int = BLOCK_PERIOD_PX, signal: np.ndarray | None = None,
+               weak: list[Tile] | tuple[()] = ()
+               ) -> tuple[DispersionResult, list[Tile], dict[str, Any] | None, float,
+                          np.ndarray | None]:
         """The fit of frames ``arr`` levelled at the tilt their corner tiles show, its tiles,
         periodogram, focal length and the scalar sequence fitted; ``res``, ``fits``, ``p``,
         ``focal_px`` and ``signal`` where they show none.
@@ -56,15 +58,17 @@ class _Level:
         shell's peak where the fit before it held one or where it holds no wave signal.
         A tilt can smear the shell away (10-15 degrees change the scale by 20-30 % across
         the frame): a fit with wave signal but no prominent peak has its tiles searched
-        over the whole range (each sees a fraction of the smear, :meth:`_tile_fits`), and
+        over the whole range (each sees a fraction of the smear, :meth:`_corner_fits`), and
         the view they call level is read (not trusted without a prominent peak of its
-        own).  A tile that no attitude explains measures no tilt
-        (:func:`.attitude.without_odd_tile`).  The tilt's uncertainty joins the levelled
+        own).  Where fewer than three tiles hold the shell, the weak tiles (``weak``: those of
+        the frames as given, :meth:`_corner_fits`) join them to measure the tilt: the near
+        side of a tilted camera's sea is faint.  A tile that no attitude explains measures no
+        tilt (:func:`.attitude.without_odd_tile`).  The tilt's uncertainty joins the levelled
         fit's: the focal length of the level view is ``f cos(tilt)``, and where the tiles
         are not placed and weighted symmetrically their mean moves with the tilt
         (:meth:`.attitude.TiltFit.extra_var_log`).
         The tilted model is kept only where the levelled view's tiles then read one scale
-        (their scatter within their noise at ``ATTITUDE_LEVEL``,
+        (the scatter of those that hold the shell within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`) and are placed to see the tilt made (at least two,
         measuring it along its direction better than the prior ``ATTITUDE_PRIOR_SD_DEG``,
         :func:`.attitude.measures_tilt`): a tilt that one tile's wrong peak made does not
@@ -78,8 +82,10 @@ class _Level:
         given = res, fits, p, focal_px, signal
         focal, rot, made = focal_px, np.eye(3), None
         for _ in range(ATTITUDE_PASSES):
+            # the tiles that measure the tilt: the weak ones too where too few hold the shell
+            seen = fits if len(fits) >= 3 else [*fits, *weak]
             # a tile that no attitude explains measures no tilt (its peak is not the shell)
-            step = fit_tilt(without_odd_tile(fits, focal, TILE_SCATTER_LEVEL), focal)
+            step = fit_tilt(without_odd_tile(seen, focal, TILE_SCATTER_LEVEL), focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
                     or not step.fits(ATTITUDE_LEVEL) or step.tilt_deg > MAX_TILT_DEG):
                 break
@@ -96,11 +102,12 @@ class _Level:
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
-            fits = self._tile_fits(signal, res, fps, focal, p, not shell)
+            fits, weak = self._corner_fits(signal, res, fps, focal, p, not shell)
         if made is None:
             return res, fits, p, focal, signal
+        seen = fits if len(fits) >= 3 else [*fits, *weak]
         if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
-                or not measures_tilt(fits, focal, ATTITUDE_PRIOR_SD, tuple(rot[2, :2]))):
+                or not measures_tilt(seen, focal, ATTITUDE_PRIOR_SD, tuple(rot[2, :2]))):
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
             # made (two in a row, a tilt across it): the tilt measured was not shown to be
             # the frames' (one tile's peak off the shell, its sigma too small) and the frames
@@ -111,7 +118,7 @@ class _Level:
             if self._holds_shell(res):
                 res.reason = res.reason or UNCONFIRMED_TILT
             return res, fits, p, focal, signal
-        last = fit_tilt(fits, focal) or made
+        last = fit_tilt(seen, focal) or made
         theta = math.acos(min(float(rot[2, 2]), 1.0))
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
         res.altitude_std_m = res.altitude_m * math.sqrt(

@@ -254,8 +254,11 @@ ATTITUDES = ("estimate", "level")
 TILE_RANGE_FACTOR = 2.0
 #: Most that a tilt within the tool's reach moves a corner tile's scale from the fit's:
 #: 15 degrees toward a corner 0.35 f off both axes gives it 1.30 times the scale at the
-#: centre, the opposite corner 0.87 times, and the fit reads between them.  A weak tile
-#: (:data:`WEAK_TILE_BAR`) read farther from the fit is not taken to measure a tilt.
+#: centre, the opposite corner 0.87 times.  A weak tile (:data:`WEAK_TILE_BAR`) read farther
+#: from the fit is not taken to measure a tilt.  (An unlevelled fit reads toward the far
+#: side's scale, so a right near tile can lie farther off: the bound is kept for the weak
+#: tiles, whose peaks are less sure; for the tiles over the bar it lost right levellings,
+#: ``docs/dispersion.md``, forty-second session.)
 TILT_REACH_FACTOR = 1.35
 #: A corner tile whose peak is prominent but stands above random phase steps by only this
 #: share of a tile's bar (:meth:`~.tiles._Tiles._corner_fits`) is a weak tile: it helps to

@@ -259,6 +259,33 @@ def test_faint_tiles_help_to_measure_a_tilt_only_where_too_few_tiles_hold_the_sh
     assert est._level(frames, 30.0, focal, None, again, far, {}, signal=frames)[0] is again
 
 
+@pytest.mark.parametrize("waves", [True, False])
+def test_a_levelled_view_whose_peak_flattened_is_read_where_it_holds_waves(monkeypatch,
+                                                                           waves) -> None:
+    """The frames as given hold a prominent peak at 6 m, their tiles a 12-degree pitch; the
+    view levelled at it, resampled, holds the waves (significant) but no prominent peak,
+    and its tiles read one scale: it is read, and not trusted.  A levelled view without
+    wave signal is not: the frames as given are."""
+    focal, est = 268.5, DispersionAltimeter()
+    b = math.sin(math.radians(12.0))
+    centres = tile_centres((256, 256), (100, 100))
+    tiles = [(x, y, math.log(6.0) - 1.5 * math.log(b * y / focal + math.sqrt(1 - b * b)),
+              0.02) for x, y in centres]
+    levelled = _fit_of(5.0, 0.1)
+    levelled.significance = 100.0 if waves else 10.0
+    frames = np.zeros((3, 256, 256), np.float32)
+    monkeypatch.setattr(est, "_fit", lambda *a, **k: (levelled, frames, {}))
+    monkeypatch.setattr(est, "_corner_fits", lambda *a, **k: (
+        [(x, y, math.log(5.0), 0.02) for x, y in centres], []))
+    given = _fit_of(6.0, 0.8)
+    res = est._level(frames, 30.0, focal, None, given, tiles, {}, signal=frames)[0]
+    if waves:
+        assert res is levelled and abs(res.attitude_deg[1] - 12.0) < 1.0, res
+        assert est._distrust(res) is not None
+    else:
+        assert res is given and res.attitude_deg is None
+
+
 def test_a_level_camera_is_not_levelled() -> None:
     nadir, sc, cfg = _scene("paper", 5.0, 2)
     frames = _remap(nadir, cfg.focal_px, _pixel_rays(256, cfg.focal_px))

@@ -333,9 +333,9 @@ def test_the_tiles_take_the_fits_mode_series_as_they_would_transform_them() -> N
     for prior in ((*v, 0.0), None):
         res, signal, p = est._fit(near, 30.0, focal, prior)
         assert p is not None and p["corners"] and p["_series"] is not None
-        given = est._tile_fits(signal, res, 30.0, focal, p)
-        assert len(given) == 4
-        assert given == est._tile_fits(signal, res, 30.0, focal)
+        given = est._corner_fits(signal, res, 30.0, focal, p)
+        assert len(given[0]) == 4
+        assert given == est._corner_fits(signal, res, 30.0, focal)
 
 
 def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
@@ -346,11 +346,12 @@ def test_the_tiles_of_a_blind_fit_are_checked_at_its_velocity() -> None:
     est = DispersionAltimeter(dispersion="gravity")
     res = est.estimate(near, fps=30.0, focal_px=focal)
     assert res.trusted, res
-    assert est._tile_verdict(est._tile_fits(est._luma(near), res, 30.0, focal), res) is None
+    assert est._tile_verdict(est._corner_fits(est._luma(near), res, 30.0, focal)[0],
+                             res) is None
     split = near.copy()
     split[:, :, 64:] = far[:, :, 64:]
-    assert "corner tiles" in est._tile_verdict(est._tile_fits(est._luma(split), res, 30.0,
-                                                             focal), res)
+    assert "corner tiles" in est._tile_verdict(est._corner_fits(est._luma(split), res, 30.0,
+                                                               focal)[0], res)
 
 
 def test_tile_scatter_is_the_variance_beyond_the_tiles_noise() -> None:

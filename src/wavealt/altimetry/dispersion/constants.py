@@ -248,9 +248,9 @@ ATTITUDE_PRIOR_SD = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
 #: the corner tiles' scales and levels the frames at it; ``"level"`` takes the frames as
 #: those of a camera looking straight down.
 ATTITUDES = ("estimate", "level")
-#: The corner tiles of :meth:`_tile_fits` are searched within this factor of the
-#: fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 % (realistic
-#: preset, 60 degrees of view), and a tile's peak twice as far is not the shell.
+#: The corner tiles of :meth:`~.tiles._Tiles._corner_fits` are searched within this factor
+#: of the fit's altitude: 15 degrees of tilt moves a corner tile's scale by 20-30 %
+#: (realistic preset, 60 degrees of view), and a tile's peak twice as far is not the shell.
 TILE_RANGE_FACTOR = 2.0
 #: Most that a tilt within the tool's reach moves a corner tile's scale from the fit's:
 #: 15 degrees toward a corner 0.35 f off both axes gives it 1.30 times the scale at the

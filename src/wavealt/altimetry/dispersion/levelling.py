@@ -85,8 +85,7 @@ class _Level:
         given = res, fits, p, focal_px, signal
         focal, rot, made = focal_px, np.eye(3), None
         for _ in range(ATTITUDE_PASSES):
-            # the tiles that measure the tilt: the weak ones too where too few hold the shell
-            seen = fits if len(fits) >= 3 else [*fits, *weak]
+            seen = _measuring(fits, weak)
             # a tile that no attitude explains measures no tilt (its peak is not the shell)
             step = fit_tilt(without_odd_tile(seen, focal, TILE_SCATTER_LEVEL), focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
@@ -98,16 +97,15 @@ class _Level:
                 break
             view = NadirView(pinhole(w, h, focal_px), w, h, roll_deg=roll, pitch_deg=pitch)
             new, s_new, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
-            shell = self._holds_shell(new)
-            if not shell and not self._holds_shell(new, prominent=False):
+            if not self._holds_shell(new, prominent=False):  # no wave signal
                 break
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
             res.signal += "+levelled"
             res.attitude_deg = (roll, pitch)
-            fits, weak = self._corner_fits(signal, res, fps, focal, p, not shell)
+            fits, weak = self._corner_fits(signal, res, fps, focal, p, not self._holds_shell(res))
         if made is None:
             return res, fits, p, focal, signal
-        seen = fits if len(fits) >= 3 else [*fits, *weak]
+        seen = _measuring(fits, weak)
         if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
                 or not measures_tilt(seen, focal, ATTITUDE_PRIOR_SD, tuple(rot[2, :2]))):
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
@@ -126,3 +124,9 @@ class _Level:
         res.altitude_std_m = res.altitude_m * math.sqrt(
             (res.altitude_std_m / res.altitude_m) ** 2 + var)
         return res, fits, p, focal, signal
+
+
+def _measuring(fits: list[Tile], weak: list[Tile] | tuple[()]) -> list[Tile]:
+    """The tiles that measure a tilt: those that hold the shell (``fits``), and the weak
+    ones (``weak``, :meth:`~.tiles._Tiles._corner_fits`) too where fewer than three do."""
+    return fits if len(fits) >= 3 else [*fits, *weak]

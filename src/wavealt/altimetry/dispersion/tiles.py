@@ -32,13 +32,6 @@ class _Tiles:
     ``_fit_periodogram``, ``_plane``, ``altitude_range_m``, ``n_scan``, ``max_modes`` and
     ``corner_tiles``)."""
 
-    def _tile_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                   focal_px: float, p: dict[str, Any] | None = None,
-                   whole_range: bool = False) -> list[Tile]:
-        """The corner tiles of ``signal`` whose fit holds a shell's peak
-        (:meth:`_corner_fits`, of which they are the first list)."""
-        return self._corner_fits(signal, res, fps, focal_px, p, whole_range)[0]
-
     def _corner_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
                      focal_px: float, p: dict[str, Any] | None = None,
                      whole_range: bool = False) -> tuple[list[Tile], list[Tile]]:
@@ -104,9 +97,9 @@ class _Tiles:
     def _holds_shell(res: DispersionResult, scale: float = 1.0, prominent: bool = True) -> bool:
         """Whether a fit found a shell's peak: significant and prominent (the first two of
         :meth:`_distrust`'s tests; not ``prominent``: the first), however wide its interval.
-        ``scale``: of the bar, for a fit on a part of the modes (a corner tile, :meth:`_tile_fits`):
-        the score's noise falls as one over the square root of the modes averaged, so the
-        same evidence in each mode stands that much less far above it (a tile on 1000 of
-        the fit's 2598 modes, 0.62 of the bar)."""
+        ``scale``: of the bar, for a fit on a part of the modes (a corner tile,
+        :meth:`_corner_fits`): the score's noise falls as one over the square root of the
+        modes averaged, so the same evidence in each mode stands that much less far above it
+        (a tile on 1000 of the fit's 2598 modes, 0.62 of the bar)."""
         return (res.significance >= MIN_SIGNIFICANCE * scale
                 and (res.quality >= TRUSTED_QUALITY or not prominent))

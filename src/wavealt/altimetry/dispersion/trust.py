@@ -285,8 +285,9 @@ class _Trust:
 
     def _tile_verdict(self, fits: list[tuple[float, float, float, float]],
                       res: DispersionResult) -> str | None:
-        """Why the corner tiles' fits ``fits`` (:meth:`_tile_fits`) contradict a fit that
-        passes the other trust tests (:meth:`_distrust`), None where they do not.
+        """Why the corner tiles' fits ``fits`` (:meth:`_corner_fits`, the first list)
+        contradict a fit that passes the other trust tests (:meth:`_distrust`), None where
+        they do not.
 
         The model holds one image scale over the frame: a camera looking straight down at a
         level sea.  A tilted camera sees the sea farther away on one side of the frame than
@@ -337,15 +338,15 @@ class _Trust:
                          res: DispersionResult, focal_px: float,
                          shape: tuple[int, int]) -> str | None:
         """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
-        levelled by what a tilt its corner tiles ``fits`` (:meth:`_tile_fits`) do not rule
-        out moves it (the prior ``ATTITUDE_PRIOR_SD_DEG``): from three tiles on, the tilt
-        within their precision (:func:`.attitude.unlevelled_tilt_var_log`; one 8.7 degrees
-        from nadir over a faint sea read 16 % high at 2.5 %), else the part they cannot
-        measure (:func:`.attitude.unmeasured_tilt_var_log`; one 13 degrees from nadir read
+        levelled by what a tilt its corner tiles ``fits`` (:meth:`_corner_fits`, the first
+        list) do not rule out moves it (the prior ``ATTITUDE_PRIOR_SD_DEG``): from three tiles
+        on, the tilt within their precision (:func:`.attitude.unlevelled_tilt_var_log`; one
+        8.7 degrees from nadir over a faint sea read 16 % high at 2.5 %), else the part they
+        cannot measure (:func:`.attitude.unmeasured_tilt_var_log`; one 13 degrees from nadir read
         36 % high, at 1.4 %, from the one corner whose sea glittered).  Why the fit is no
         longer trusted where it passed the trust tests before and the wider interval fails
         the bar, else None."""
-        # the corner tiles' places (:meth:`_tile_fits` cuts them so)
+        # the corner tiles' places (:meth:`_corner_fits` cuts them so)
         tile = _corner_shape(*shape, self.corner_tiles or 0.4)
         var = unlevelled_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD, tile)
         if var is None:

@@ -3,7 +3,8 @@ targets; prints one JSON object.
 
     python benchmarks/bench_dispersion.py [--rows realistic-30-blind,paper-10-exact,...]
         [--seeds 23,31] [--sequences 200] [--workers 2] [--out FILE.json] [--quick] [--no-cache]
-        [--compression none|jpeg|h264] [--jpeg-quality 90]
+        [--compression none|jpeg|h264] [--jpeg-quality 90] [--h264-crf 23]
+        [--h264-preset ultrafast|medium|...]
 
 Each row is one (preset, frames, mode) combination (:data:`ROWS`), run on ``--sequences``
 simulated 256^2 sequences per seed (altitude 1-15 m, wind 2-12 m/s, the camera drifting
@@ -18,9 +19,10 @@ clip are not the same frames: up to 0.1 apart in intensity on both presets).  Mo
   ``velocity_sigma_mps`` = 1;
 * ``exact``: ``velocity_mps`` = the camera's true velocity over the water.
 
-The realistic preset's camera encodes its frames as JPEG at quality 90; ``--compression``
-and ``--jpeg-quality`` change its encoder (the paper renderer has no camera model, and its
-rows are unchanged), so that the rows can be read against the coder.
+The realistic preset's camera encodes its frames as JPEG at quality 90; ``--compression``,
+``--jpeg-quality``, ``--h264-crf`` and ``--h264-preset`` change its encoder (the paper
+renderer has no camera model, and its rows are unchanged), so that the rows can be read
+against the coder.
 
 Per row, seed and condition: relative MAE, median and bias, the trusted share and the error
 of the trusted estimates, 3-sigma coverage, half/double-altitude confusions, latency per
@@ -69,7 +71,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from wavealt.io import atomic_path, atomic_write_text  # noqa: E402
-from wavealt.sim.config import COMPRESSIONS  # noqa: E402
+from wavealt.sim.config import COMPRESSIONS, H264_PRESETS  # noqa: E402
 
 # -- settings (one place) -------------------------------------------------------------------
 HERE = Path(__file__).resolve().parent
@@ -85,7 +87,7 @@ QUICK_SEQUENCES = 6
 CONDITIONS = ("clean", "glinty")
 #: The realistic camera's encoder settings (``sim_config``'s ``sensor``), which the paper
 #: renderer does not have.
-ENCODER_FIELDS = ("compression", "jpeg_quality")
+ENCODER_FIELDS = ("compression", "jpeg_quality", "h264_crf", "h264_preset")
 #: Scenario ranges of the issue, the same for both presets.
 SCENARIO_OVERRIDES: dict[str, tuple[float, float]] = {
     "altitude_m": (1.0, 15.0),
@@ -621,7 +623,7 @@ def realistic_camera(sensor: tuple[tuple[str, Any], ...], size: int) -> dict[str
     """The realistic rows' encoder as run (the preset's, with ``sensor`` applied)."""
     cam = sim_config("realistic", 30, 0, 1, size, sensor).sensor
     return {"compression": cam.compression, "jpeg_quality": cam.jpeg_quality,
-            "h264_crf": cam.h264_crf}
+            "h264_crf": cam.h264_crf, "h264_preset": cam.h264_preset}
 
 
 def write_outputs(result: dict[str, Any], recs: list[dict[str, Any]], out: Path) -> None:
@@ -658,6 +660,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="first remove the cache's folders of frames from older simulator code")
     ap.add_argument("--compression", choices=COMPRESSIONS, default=None,
                     help="the realistic camera's encoder (default: the preset's, jpeg)")
+    ap.add_argument("--h264-crf", type=int, default=None,
+                    help="the realistic camera's H.264 constant rate factor, 0-51 (lower: "
+                         "better; default 23, libx264's); needs --compression h264")
+    ap.add_argument("--h264-preset", choices=H264_PRESETS, default=None,
+                    help="the realistic camera's libx264 preset (default ultrafast: no B-frames, "
+                         "whole-pixel motion; medium: libx264's default); needs --compression "
+                         "h264")
     ap.add_argument("--jpeg-quality", type=int, default=None,
                     help="the realistic camera's JPEG quality, 1-100 (default: the preset's, 90)")
     ap.add_argument("--fps", type=float, default=None,
@@ -698,12 +707,20 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         if args.compression not in (None, "jpeg"):
             ap.error(f"--jpeg-quality needs the jpeg encoder; got --compression "
                      f"{args.compression}")
+    if args.h264_crf is not None:
+        if not 0 <= args.h264_crf <= 51:
+            ap.error(f"--h264-crf must be in 0-51; got {args.h264_crf}")
+    for flag, value in (("--h264-crf", args.h264_crf), ("--h264-preset", args.h264_preset)):
+        if value is not None and args.compression != "h264":
+            ap.error(f"{flag} needs --compression h264; got --compression {args.compression}")
     if args.fps is not None and not 5.0 <= args.fps <= 240.0:
         ap.error(f"--fps must be within 5-240; got {args.fps:g}")
     if args.fov_deg is not None and not 10.0 <= args.fov_deg <= 150.0:
         ap.error(f"--fov-deg must be within 10-150; got {args.fov_deg:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
                                             ("jpeg_quality", args.jpeg_quality),
+                                            ("h264_crf", args.h264_crf),
+                                            ("h264_preset", args.h264_preset),
                                             ("fps", args.fps), ("fov_deg", args.fov_deg))
                         if v is not None)
     return args

@@ -239,3 +239,32 @@ def test_a_camera_option_reaches_the_altimeter(tmp_path, run_cli, frames, option
     plain = DispersionAltimeter(dispersion="gravity").estimate(read_input(tmp_path / "f"), **kw)
     assert json.loads(out)["altitude_m"] == pytest.approx(direct.altitude_m, rel=1e-12)
     assert direct.altitude_m != plain.altitude_m
+
+
+@pytest.mark.parametrize(("codec", "velocity"), [
+    ("libx264", []), ("libx264", ["--velocity-mps", "0,0"]), ("mjpeg", [])])
+def test_a_video_that_predicts_frames_is_not_trusted_without_the_exact_velocity(
+        tmp_path, run_cli, long_frames, codec, velocity) -> None:
+    """The clip the altimeter vouches for as frames (above), as H.264 (most frames coded from
+    others: the motion-compensated texture biases a fit without the velocity high) and as
+    Motion JPEG (every frame coded alone).  From H.264 the blind window is read but not
+    trusted, the codec named; with the velocity exact, and from Motion JPEG, the fit's own
+    verdict stands: trusted, within 5 % of 3 m."""
+    clip, focal_px = long_frames
+    write_video(tmp_path / "clip.mp4", clip, fps=30.0, codec=codec)
+    code, out, err = run_cli(["altitude", str(tmp_path / "clip.mp4"), "--focal-px",
+                              str(focal_px), "--dispersion", "gravity", "--json",
+                              "--out", str(tmp_path / "out"), *velocity])
+    assert code == 0, err
+    d = json.loads(out)
+    rows = json.loads((tmp_path / "out" / "altitude.json").read_text())["windows"]
+    assert d["predicted_by"] == ("h264" if codec == "libx264" else None)
+    if codec == "libx264" and not velocity:
+        assert d["trusted"] is False and not any(r["trusted"] for r in rows)
+        assert d["reason"].startswith("the frames were decoded from h264 video, which "
+                                      "predicts frames from other frames")
+        assert all(r["reason"] == d["reason"] for r in rows)
+        assert 3.0 * d["altitude_std_m"] >= 19.5
+    else:
+        assert d["trusted"] is True and d["reason"] is None
+        assert abs(d["altitude_m"] - 3.0) < 0.05 * 3.0

@@ -10,8 +10,18 @@ import numpy as np
 import pytest
 
 from wavealt.camera import NadirView, pinhole
-from wavealt.framesource import VideoFrames, WindowMap, scan_video
+from wavealt.framesource import VideoFrames, WindowMap, predicting_codec, scan_video
 from wavealt.io import read_clip, read_video_timed, write_video
+
+
+def _texture(size: int = 48) -> np.ndarray:
+    """A smooth random texture, uint8 RGB."""
+    rng = np.random.default_rng(7)
+    f = np.fft.ifft2(np.fft.fft2(rng.standard_normal((size, size)))
+                     * np.exp(-np.add.outer(np.fft.fftfreq(size) ** 2,
+                                            np.fft.fftfreq(size) ** 2) * 200.0)).real
+    g = (f - f.min()) / np.ptp(f) * 200.0 + 20.0
+    return np.repeat(g[..., None], 3, axis=-1).astype(np.uint8)
 
 
 def _video(tmp_path, n: int = 40, size: int = 48):
@@ -92,3 +102,15 @@ def test_the_altitude_of_a_video_read_window_by_window_is_the_one_from_memory(
                               "--step", "6", "--velocity-mps", "0.1,0", "--json"])
     assert code == 0, err
     assert json.loads(out)["altitude_m"] == pytest.approx(memory["altitude_m"], rel=1e-12)
+
+
+@pytest.mark.parametrize(("codec", "name"), [("libx264", "h264"), ("mpeg4", "mpeg4"),
+                                             ("mjpeg", None)])
+def test_a_codec_that_predicts_frames_from_others_is_named(tmp_path, codec, name) -> None:
+    """H.264 and MPEG-4 code most frames from other frames (their packets are not key
+    frames); Motion JPEG codes every frame alone."""
+    frames = np.stack([np.roll(_texture(), t, axis=1) for t in range(12)])  # moving
+    write_video(tmp_path / "clip.mp4", frames, codec=codec)
+    assert predicting_codec(tmp_path / "clip.mp4") == name
+    with pytest.raises(FileNotFoundError, match="video file not found"):
+        predicting_codec(tmp_path / "missing.mp4")

@@ -375,3 +375,41 @@ def test_a_pipe_on_standard_input_is_read_live(tmp_path) -> None:
     # frames come, always from the newest ones
     assert summary["frames"] == 30 and 1 <= summary["estimates"] <= 3
     assert summary["stopped_by"] == "end of stream"
+
+
+def _trusted(mode: str) -> dict:
+    """A window's result as an altimeter that vouched for it returns it."""
+    return {"altitude_m": 3.0, "altitude_std_m": 0.05, "camera_velocity_mps": (0.3, 0.0),
+            "trusted": True, "reason": None, "quality": 0.8, "mode": mode}
+
+
+@pytest.mark.parametrize(("codec", "mode", "kept"), [
+    ("libx264", "blind", False), ("libx264", "prior", False), ("libx264", "exact", True),
+    ("mjpeg", "blind", True)])
+def test_a_stream_that_predicts_frames_is_not_trusted_without_the_exact_velocity(
+        tmp_path, codec, mode, kept) -> None:
+    """H.264 codes most frames from others (motion-compensated texture, which biases a fit
+    without the velocity high): such windows are not trusted, with the codec named, and their
+    3-sigma interval spans the range, before a flight controller is told; with the velocity
+    exact, or from Motion JPEG (every frame coded alone), the verdict stands."""
+    cfg = preset_config("paper", size=64, frames=24, altitude_m=(3.0, 3.0),
+                        wind_speed_mps=(7.0, 7.0))
+    write_video(tmp_path / "clip.mp4", generate_sequence(cfg.sample_scenario(2), cfg).clean,
+                codec=codec)
+    sent = []
+    summary = run_live(str(tmp_path / "clip.mp4"), estimate=lambda *a: _trusted(mode),
+                       window=10, step=5, on_estimate=sent.append, log=tmp_path / "live.csv",
+                       altitude_range_m=(0.5, 20.0))
+    rows = _rows(tmp_path / "live.csv")
+    assert rows and len(sent) == len(rows) == summary["estimates"]
+    assert summary["trusted_estimates"] == (len(rows) if kept else 0)
+    assert summary["predicted_by"] == ("h264" if codec == "libx264" else None)
+    for res, row in zip(sent, rows):
+        assert res["trusted"] is kept and row["trusted"] == str(kept)
+        if kept:
+            assert res["reason"] is None and res["altitude_std_m"] == 0.05
+        else:
+            assert res["reason"].startswith("the frames were decoded from h264 video, which "
+                                             "predicts frames from other frames")
+            assert row["reason"] == res["reason"]
+            assert 3.0 * res["altitude_std_m"] >= 19.5 and res["altitude_m"] == 3.0

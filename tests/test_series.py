@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+from wavealt.altimetry.coding import PREDICTED_FRAMES, predicted_verdict
 from wavealt.altimetry.series import (
     CSV_COLUMNS,
     NO_TRUSTED_WINDOW,
@@ -129,3 +130,17 @@ def test_single_window_is_its_own_summary() -> None:
     s = summarize([row], frames=10)
     assert s["altitude_m"] == 4.0 and s["trusted"] is False and s["reason"] == row["reason"]
     assert (s["windows"], s["trusted_windows"]) == (1, 0) and "start_frame" not in s
+
+
+def test_the_verdict_on_predicted_frames_keeps_a_fits_own_reason_and_the_exact_mode() -> None:
+    """A window already not trusted keeps its own reason; an exact one, and frames not
+    predicted (no codec), are left as they are; a trusted blind one is refused, its 3-sigma
+    interval spanning the range."""
+    base = _row(3.0, 0.05, 0.8, True)
+    assert predicted_verdict(dict(base), None, (0.5, 20.0)) == base
+    assert predicted_verdict({**base, "mode": "exact"}, "h264", (0.5, 20.0))["trusted"] is True
+    own = predicted_verdict(_row(3.0, 6.5, 0.1, False), "h264", (0.5, 20.0))
+    assert own["reason"] == "no prominent wave-shell peak"
+    out = predicted_verdict(dict(base), "hevc", (1.0, 16.0))
+    assert out["trusted"] is False and out["reason"] == PREDICTED_FRAMES.format(codec="hevc")
+    assert out["altitude_std_m"] == 5.0 and out["altitude_m"] == 3.0

@@ -58,6 +58,18 @@ def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
     return t, len(pts), first.height, first.width
 
 
+def predicting_codec(path: Path | str) -> str | None:
+    """The name (FFmpeg's) of the codec of video file ``path`` where it predicts frames from
+    other frames (a packet that is not a key frame: H.264, HEVC, ... with P- or B-frames),
+    None where every frame is coded alone (Motion JPEG, all-key-frame video); from the
+    packets, no frame decoded (:mod:`wavealt.altimetry.coding` says what prediction does to
+    a fit)."""
+    with open_video(path) as container:
+        stream = container.streams.video[0]
+        predicted = any(p.size and not p.is_keyframe for p in container.demux(stream))
+        return stream.codec_context.name if predicted else None
+
+
 class _Windows:
     """Frames ``(T, H, W[, 3])`` read as windows, ``frames[start:stop]`` (``shape`` and
     ``_window`` given by the subclass); ``np.asarray`` reads them all."""

@@ -204,13 +204,16 @@ class Clip:
     ``frames[a:b]`` asks, never whole; ``np.asarray`` decodes it all); ``times_s``:
     ``(T,)`` seconds from the first frame, strictly increasing; ``source_fps``: the rate the
     source records (a video's timestamps, ``--fps`` or the CSV's median spacing);
-    ``timing``: where the times came from (``"timestamps"``, ``"fps"``, ``"csv"``).
+    ``timing``: where the times came from (``"timestamps"``, ``"fps"``, ``"csv"``);
+    ``predicted_by``: the codec of a video that predicts frames from other frames
+    (:func:`wavealt.framesource.predicting_codec`), None for frames coded alone.
     """
 
     frames: Any
     times_s: np.ndarray
     source_fps: float
     timing: str
+    predicted_by: str | None = None
 
 
 def read_video(path: Path | str, *, max_frames: int | None = None) -> np.ndarray:
@@ -342,12 +345,13 @@ def read_clip(path: Path | str, *, fps: float | None = None, frame_times: Path |
     if frame_times is not None:
         msg = "--frame-times is for frame folders; a video's frames carry their own timestamps"
         raise ValueError(msg)
-    from wavealt.framesource import VideoFrames, scan_video
+    from wavealt.framesource import VideoFrames, predicting_codec, scan_video
 
     times, n, height, width = scan_video(path)
+    codec = predicting_codec(path)
     if force_fps:
         frames = VideoFrames(path, n, height, width)
-        return Clip(frames, np.arange(n) / fps, float(fps), "fps")
+        return Clip(frames, np.arange(n) / fps, float(fps), "fps", codec)
     if times is None:
         msg = f"video {path} has frames without timestamps; give --fps and --force-fps"
         raise ValueError(msg)
@@ -361,7 +365,7 @@ def read_clip(path: Path | str, *, fps: float | None = None, frame_times: Path |
         msg = (f"--fps {fps:g} contradicts the video's own frame rate, {own:.3g} fps from its "
                "timestamps; drop --fps, or add --force-fps to override the timestamps")
         raise ValueError(msg)
-    return Clip(frames, t, own, "timestamps")
+    return Clip(frames, t, own, "timestamps", codec)
 
 
 def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
@@ -380,8 +384,10 @@ def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
     with av.open(str(path), mode="w") as container:
         stream = container.add_stream(codec, rate=Fraction(fps).limit_denominator(1000))
         stream.width, stream.height = arr.shape[2], arr.shape[1]
-        stream.pix_fmt = "yuv420p"
-        stream.options = {"qscale": "2"} if codec == "mpeg4" else {"crf": "12"}
+        # Motion JPEG codes every frame alone (full-range YUV)
+        stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
+        stream.options = {"mpeg4": {"qscale": "2"},
+                          "mjpeg": {"qmin": "1", "qmax": "2"}}.get(codec, {"crf": "12"})
         if times_s is not None:
             stream.codec_context.time_base = Fraction(1, 60000)
         for i, img in enumerate(arr):

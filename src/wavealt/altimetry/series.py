@@ -16,6 +16,7 @@ import numpy as np
 from tqdm import tqdm
 
 from wavealt._checks import check_finite_number, check_frames
+from wavealt.altimetry.coding import PREDICTED_FRAMES, predicted_verdict
 from wavealt.altimetry.dispersion import MIN_FRAMES, DispersionAltimeter
 from wavealt.io import (
     atomic_write_text,
@@ -41,6 +42,7 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
                     velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
                     yaw_rate_dps: float | None = None, times_s: np.ndarray | None = None,
                     on_window: Callable[[dict[str, Any]], Any] | None = None,
+                    predicted_by: str | None = None,
                     **kw: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Estimates on sliding windows of ``frames`` and a summary of them.
 
@@ -87,6 +89,10 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
     on_window : callable, optional
         Called with each window's row as soon as it is estimated (e.g. to send it to a
         flight controller).
+    predicted_by : str, optional
+        The codec of a video that predicts frames from other frames, which the frames were
+        decoded from (:func:`wavealt.framesource.predicting_codec`): a window not given the
+        velocity exactly is then not trusted (:func:`.coding.predicted_verdict`).
     **kw
         Options of :class:`DispersionAltimeter` (``dispersion``, ``deglint``, ...).
 
@@ -132,10 +138,13 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
                            readout_s=readout_s, yaw_rate_dps=yaw_rate_dps)
         rows.append({"start_frame": start, "stop_frame": stop,
                      "time_s": float(0.5 * (t[start] + t[stop - 1])), "fps": float(w_fps),
-                     **res.to_dict()})
+                     **predicted_verdict(res.to_dict(), predicted_by, est.altitude_range_m)})
         if on_window is not None:
             on_window(rows[-1])
     summary = summarize(rows, frames=int(arr.shape[0]))
+    if predicted_by is not None and summary["mode"] != "exact" and not summary["trusted"]:
+        summary["reason"] = PREDICTED_FRAMES.format(codec=predicted_by)
+    summary["predicted_by"] = predicted_by
     summary["dropped_frames"] = int(dropped)
     summary["unused_frames"] = int(arr.shape[0] - len({i for a, b in ranges for i in range(a, b)}))
     if out is not None:

@@ -236,7 +236,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             attitude="level" if known else "estimate", out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
-            yaw_rate_dps=yaw_rate_dps,
+            yaw_rate_dps=yaw_rate_dps, predicted_by=clip.predicted_by,
             on_window=link.send_altitude if link is not None else None)
     finally:
         if link is not None:
@@ -381,12 +381,17 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                                   velocity_sigma_mps=sd if vel is not None else 0.0,
                                   readout_s=readout_s,
                                   yaw_rate_dps=yaw).to_dict()
-        judge(res, info, est[known].altitude_range_m)
+        return judge(res, info, est[known].altitude_range_m)
+
+    def deliver(res: dict[str, Any]) -> None:
+        """Each estimate as judged whole (run_live's verdict on predicted frames too): shown,
+        and sent where a flight controller is linked."""
         if not as_json:
             verdict = "TRUSTED" if res["trusted"] else f"NOT TRUSTED ({res['reason']})"
             click.echo(f"{res['altitude_m']:.3f} +/- {res['altitude_std_m']:.3f} m  "
                        f"{res['mode']}  {verdict}")
-        return res
+        if link is not None:
+            link.send_altitude(res)
 
     if mavlink is not None:
         from wavealt.live.mavlink import MavlinkLink
@@ -399,7 +404,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
         summary = run_live(source, estimate=estimate, window=window, step=step, fmt=live_format,
                            duration_s=duration, fps=fps,
                            log=out / LIVE_FILE if out is not None else None,
-                           on_estimate=link.send_altitude if link is not None else None)
+                           on_estimate=deliver, altitude_range_m=est[False].altitude_range_m)
     finally:
         if link is not None:
             link.close()

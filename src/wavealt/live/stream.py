@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from wavealt._checks import check_finite_number, check_integer
+from wavealt.altimetry.coding import predicted_verdict
 from wavealt.io import nominal_rate, one_second_window, regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
@@ -53,6 +54,7 @@ class _Buffered:
     arrival: float  # time.monotonic() when the frame was decoded
     frame: np.ndarray
     used: bool = False
+    predicted: bool = False  # decoded from other frames (not a key frame)
 
 
 @dataclass
@@ -87,6 +89,7 @@ class FrameReader(threading.Thread):
         self.new_frame = threading.Condition(self.lock)
         self.stop_event = threading.Event()
         self.stats = ReaderStats()
+        self.codec: str | None = None  # FFmpeg's name of the stream's codec, once open
 
     def run(self) -> None:
         import av  # deferred: 0.4 s of the command line's start-up
@@ -97,6 +100,7 @@ class FrameReader(threading.Thread):
                 if not container.streams.video:
                     self._fail(f"{self.source} holds no video stream")
                     return
+                self.codec = container.streams.video[0].codec_context.name
                 self.stats.opened.set()
                 start = None
                 for n, frame in enumerate(container.decode(video=0)):
@@ -111,7 +115,7 @@ class FrameReader(threading.Thread):
                         delay = start + t - time.monotonic()
                         if delay > 0 and self.stop_event.wait(delay):
                             break
-                    self._push(t, frame.to_ndarray(format="rgb24"))
+                    self._push(t, frame.to_ndarray(format="rgb24"), not frame.key_frame)
         except (av.error.FFmpegError, OSError) as exc:
             self._fail(f"cannot read {self.source}: {exc}")
             return
@@ -125,9 +129,9 @@ class FrameReader(threading.Thread):
         self.stats.error = message
         self.stats.opened.set()
 
-    def _push(self, t: float, frame: np.ndarray) -> None:
+    def _push(self, t: float, frame: np.ndarray, predicted: bool = False) -> None:
         with self.lock:
-            self.buffer.append(_Buffered(float(t), time.monotonic(), frame))
+            self.buffer.append(_Buffered(float(t), time.monotonic(), frame, False, predicted))
             self.stats.frames += 1
             while len(self.buffer) > self.capacity:  # drop the oldest, never wait
                 if not self.buffer.popleft().used:
@@ -157,7 +161,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
              duration_s: float | None = None,
              log: Path | None = None, on_estimate: Callable[[dict[str, Any]], Any] | None = None,
              pace: bool | None = None, capacity: int | None = None,
-             fps: float | None = None) -> dict[str, Any]:
+             fps: float | None = None,
+             altitude_range_m: tuple[float, float] = (0.5, 20.0)) -> dict[str, Any]:
     """Estimate the altitude from ``source`` until it ends, ``duration_s`` passes, or SIGINT /
     SIGTERM; return a summary.
 
@@ -180,6 +185,10 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     real time would give every window a wrong rate, and the altitude goes as its inverse
     square).  A rate or duration that is not a positive number, a window of fewer than 3
     frames, or a step or capacity below 1 is a ``ValueError`` before the source is opened.
+    A window that holds frames the codec predicted from other frames, estimated without the
+    velocity exactly, is not trusted (:func:`~wavealt.altimetry.coding.predicted_verdict`;
+    ``altitude_range_m``, the altimeter's range, is then its 3-sigma interval); the summary
+    names such a codec (``predicted_by``).
     """
     if fps is not None:
         fps = check_finite_number("fps", fps, low=0.0, low_open=True)
@@ -207,6 +216,7 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     rows, skipped, first_done, last_done = 0, 0, math.nan, math.nan
     latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
     trusted = 0
+    predicted_by = None
     try:
         reader.start()
         reader.stats.opened.wait(timeout=30.0)
@@ -261,6 +271,9 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
             fps = (len(times) - 1) / (times[-1] - times[0])
             res = estimate(np.stack([it.frame for it in items]), float(fps),
                            np.array([it.arrival for it in items]))
+            if any(it.predicted for it in items):
+                predicted_by = reader.codec
+                res = predicted_verdict(res, predicted_by, altitude_range_m)
             if on_estimate is not None:
                 on_estimate(res)
             # from the window's last frame to the estimate delivered (sent, when linked)
@@ -305,7 +318,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
             "latency_ms_median": round(1e3 * float(np.median(lat)), 1),
             "latency_ms_p90": round(1e3 * float(np.quantile(lat, 0.9)), 1),
             "stopped_by": ("signal" if stop.is_set() else "end of stream"
-                           if reader.stats.finished else "duration")}
+                           if reader.stats.finished else "duration"),
+            "predicted_by": predicted_by}
 
 
 __all__ = ["LIVE_COLUMNS", "LIVE_FILE", "FrameReader", "ReaderStats", "run_live"]

@@ -35,6 +35,9 @@ MIN_SIZE_PX = 32
 #: Largest camera roll or pitch, degrees (the nadir approximation of wavealt.sim.sensor).
 MAX_TILT_DEG = 20.0
 COMPRESSIONS = ("none", "jpeg", "h264")
+#: libx264's speed presets, fastest first (:attr:`SensorModel.h264_preset`).
+H264_PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow",
+                "slower", "veryslow")
 
 def derive_seed(seed: int, index: int) -> int:
     """Seed of sequence ``index`` of a dataset seeded ``seed`` (independent streams)."""
@@ -165,6 +168,11 @@ class SensorModel:
         1..100 (Pillow's scale).
     h264_crf : int
         0..51, libx264 constant rate factor.
+    h264_preset : str
+        libx264's speed preset (:data:`H264_PRESETS`): ``"ultrafast"`` predicts each frame
+        from the one before at whole-pixel motion, no B-frames and no deblocking;
+        ``"medium"`` (libx264's default, like a camera's encoder) adds quarter-pixel motion,
+        B-frames and the deblocking filter.
     """
 
     full_well_e: float = 20000.0
@@ -174,6 +182,7 @@ class SensorModel:
     compression: str = "none"
     jpeg_quality: int = 90
     h264_crf: int = 23
+    h264_preset: str = "ultrafast"
 
     def __post_init__(self) -> None:
         if not isinstance(self.srgb, bool):
@@ -186,6 +195,7 @@ class SensorModel:
         check_choice("compression", self.compression, COMPRESSIONS)
         check_integer("jpeg_quality", self.jpeg_quality, low=1, high=100)
         check_integer("h264_crf", self.h264_crf, low=0, high=51)
+        check_choice("h264_preset", self.h264_preset, H264_PRESETS)
 
 
 #: The sub-configs by their name in SimConfig (and in dataset.json).

@@ -117,7 +117,7 @@ def _jpeg(frames8: np.ndarray, quality: int) -> np.ndarray:
     return out
 
 
-def _h264(frames8: np.ndarray, crf: int, fps: float) -> np.ndarray:
+def _h264(frames8: np.ndarray, crf: int, fps: float, preset: str = "ultrafast") -> np.ndarray:
     import av  # deferred: 0.4 s, only for H.264 encoding
 
     t, h, w, _ = frames8.shape
@@ -128,7 +128,7 @@ def _h264(frames8: np.ndarray, crf: int, fps: float) -> np.ndarray:
     with av.open(buf, mode="w", format="mp4") as box:
         stream = box.add_stream("libx264", rate=max(int(round(fps)), 1))
         stream.width, stream.height, stream.pix_fmt = w, h, "yuv420p"
-        stream.options = {"crf": str(int(crf)), "preset": "ultrafast", "threads": "1"}
+        stream.options = {"crf": str(int(crf)), "preset": preset, "threads": "1"}
         for f in frames8:
             for pkt in stream.encode(av.VideoFrame.from_ndarray(f, format="rgb24")):
                 box.mux(pkt)
@@ -163,7 +163,10 @@ def encode(linear: np.ndarray, sensor: SensorModel, *, fps: float = 30.0) -> np.
     if sensor.compression == "none":
         return y
     q = np.rint(y * 255.0).astype(np.uint8)
-    q = _jpeg(q, sensor.jpeg_quality) if sensor.compression == "jpeg" else _h264(q, sensor.h264_crf, fps)
+    if sensor.compression == "jpeg":
+        q = _jpeg(q, sensor.jpeg_quality)
+    else:
+        q = _h264(q, sensor.h264_crf, fps, sensor.h264_preset)
     return (q.astype(np.float32) / np.float32(255.0))
 
 

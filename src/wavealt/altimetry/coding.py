@@ -24,7 +24,7 @@ from typing import Any
 #: the codec's name, as FFmpeg gives it).
 PREDICTED_FRAMES = ("the frames were decoded from {codec} video, which predicts frames from "
                     "other frames: its motion-compensated texture biases a fit without the "
-                    "velocity high (by 2-12 % in our tests); give the velocity exactly "
+                    "velocity high (by 1-12 % in our tests); give the velocity exactly "
                     "(--velocity-mps) or intra-coded frames")
 
 

@@ -258,3 +258,38 @@ def test_printed_numbers_never_read_minus_zero() -> None:
     assert fmt(-0.001) == "0.00" and fmt(-0.001, signed=True) == "+0.00"
     assert fmt(-0.004, signed=True, digits=2) == "+0.00" and fmt(-0.006, signed=True) == "-0.01"
     assert fmt(float("nan")) == "—" and fmt(None) == "—" and fmt(1.234, digits=1) == "1.2"
+
+
+def test_a_dataset_coded_with_h264_is_judged_as_a_video_file_is(tmp_path) -> None:
+    """The realistic camera's H.264 predicts frames from other frames: a sequence the
+    altimeter trusts blind is not trusted in the evaluation, the codec named, and its 3-sigma
+    interval spans the range; one it does not trust keeps its own reason."""
+    from wavealt.altimetry.coding import PREDICTED_FRAMES, simulated_codec
+    from wavealt.altimetry.dispersion import DispersionAltimeter
+    from wavealt.dataset import simulate_dataset
+    from wavealt.evaluation import DispersionEstimator
+    from wavealt.sim.config import preset_config
+
+    cfg = preset_config("realistic", sequences=4, size=128, frames=30, altitude_m=(3.0, 3.0),
+                        wind_speed_mps=(8.0, 8.0), compression="h264")
+    assert simulated_codec(cfg) == "h264"
+    assert simulated_codec(preset_config("realistic")) is None  # JPEG: frames coded alone
+    assert simulated_codec(preset_config("paper")) is None
+    simulate_dataset(tmp_path / "ds", cfg, progress=False)
+    ds = Dataset(tmp_path / "ds")
+    est, alone = DispersionEstimator(), DispersionAltimeter(dispersion="gravity-capillary")
+    vouched = 0
+    for rec in ds.records:
+        for cond in ("clean", "glinty"):
+            got = est.estimate_graded(ds, cond, rec)
+            own = alone.estimate(ds.read_frames(cond, rec.sequence_id),
+                                 fps=rec.scenario.fps, focal_px=rec.scenario.focal_px)
+            assert got.altitude_m == pytest.approx(own.altitude_m)
+            assert got.trusted is False
+            if own.trusted:
+                vouched += 1
+                assert got.reason == PREDICTED_FRAMES.format(codec="h264")
+                assert 3.0 * got.std_m >= 19.5
+            else:
+                assert got.reason == own.reason
+    assert vouched  # the verdict was put to the test

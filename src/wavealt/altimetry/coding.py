@@ -44,4 +44,14 @@ def predicted_verdict(result: dict[str, Any], codec: str | None,
     return result
 
 
-__all__ = ["PREDICTED_FRAMES", "predicted_verdict"]
+def simulated_codec(config: Any) -> str | None:
+    """The codec that predicted the frames of a dataset rendered with simulator config
+    ``config`` (``SimConfig``): ``"h264"`` where the realistic renderer's camera coded them
+    with libx264 (:attr:`wavealt.sim.config.SensorModel.compression`), else None."""
+    if getattr(config, "renderer", None) != "realistic":
+        return None
+    sensor = getattr(config, "sensor", None)
+    return "h264" if getattr(sensor, "compression", None) == "h264" else None
+
+
+__all__ = ["PREDICTED_FRAMES", "predicted_verdict", "simulated_codec"]

@@ -28,6 +28,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from wavealt._checks import check_finite_number
+from wavealt.altimetry.coding import predicted_verdict, simulated_codec
 from wavealt.altimetry.dispersion import DISPERSIONS, DispersionAltimeter
 from wavealt.altimetry.relation import dispersion_of, dispersion_of_input
 
@@ -163,8 +164,11 @@ class DispersionEstimator:
                                           velocity_sigma_mps=self.velocity_sigma_mps)
         except ValueError as exc:
             return GradedEstimate(math.nan, 0.0, False, reason=str(exc))
-        return GradedEstimate(float(res.altitude_m), float(res.quality), bool(res.trusted),
-                              float(res.altitude_std_m), res.reason)
+        # frames the simulated camera coded with H.264 are judged as a video file's are
+        out = predicted_verdict(res.to_dict(), simulated_codec(getattr(dataset, "config", None)),
+                                self.altimeter.altitude_range_m)
+        return GradedEstimate(float(out["altitude_m"]), float(out["quality"]),
+                              bool(out["trusted"]), float(out["altitude_std_m"]), out["reason"])
 
     def estimate(self, dataset: Any, condition: str, record: Any) -> float:
         return self.estimate_graded(dataset, condition, record).altitude_m

@@ -470,7 +470,9 @@ def capture(sc: Scene, lum: np.ndarray,
     electrons = rng.poisson(np.minimum(lum * scale, 2.0) * sc.full_well)
     signal = (electrons + rng.normal(0.0, sc.read_e, lum.shape)) / sc.full_well
     frames = np.round(np.clip(signal, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
-    if sc.jpeg_quality is not None:
+    if H264_CRF is not None:  # a video camera: the clip coded as a stream, not as stills
+        frames = h264_round_trip(frames, H264_CRF)
+    elif sc.jpeg_quality is not None:
         for t, frame in enumerate(frames):
             buf = io.BytesIO()
             Image.fromarray(frame).save(buf, format="JPEG", quality=sc.jpeg_quality)
@@ -478,6 +480,30 @@ def capture(sc: Scene, lum: np.ndarray,
     clean = np.clip(lum[0] * gains[0], 0, 1) ** (1 / 2.2) * 255
     return frames, {"texture_dn": float(np.std(clean)),
                     "noise_dn": float(np.std(frames[0] - clean))}
+
+
+def h264_round_trip(frames: np.ndarray, crf: int) -> np.ndarray:
+    """Grey uint8 frames ``(T, H, W)`` coded with libx264 (its default preset, ``medium``:
+    quarter-pixel motion, B-frames) at ``crf`` and decoded again (the luma)."""
+    import av
+
+    buf = io.BytesIO()
+    with av.open(buf, mode="w", format="mp4") as box:
+        stream = box.add_stream("libx264", rate=round(FPS))
+        stream.width, stream.height, stream.pix_fmt = frames.shape[2], frames.shape[1], "yuv420p"
+        stream.options = {"crf": str(int(crf)), "preset": "medium", "threads": "1"}
+        for f in frames:
+            for pkt in stream.encode(av.VideoFrame.from_ndarray(f, format="gray")):
+                box.mux(pkt)
+        for pkt in stream.encode():
+            box.mux(pkt)
+    buf.seek(0)
+    with av.open(buf) as box:
+        out = np.stack([f.to_ndarray(format="gray") for f in box.decode(video=0)])
+    if out.shape != frames.shape:
+        msg = f"H.264 round trip gave {out.shape} for {frames.shape}"
+        raise ValueError(msg)
+    return out
 
 
 def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str, float]]:
@@ -496,16 +522,21 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
 
 #: the altimeter's working scale (``--working-px``; None: its default)
 WORKING_PX: int | None = None
+#: the clips coded as H.264 video at this constant rate factor (``--h264-crf``; None: not)
+H264_CRF: int | None = None
 
 
-def set_size(size: int, working_px: int | None = None, fps: float = 30.0) -> None:
+def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
+             h264_crf: int | None = None) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
     grows with them, its margin around the frame in the same proportion), ``fps`` of them a
     second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
-    fitted at the altimeter's working scale ``working_px`` (None: its default); also each
-    worker's initializer."""
-    global SIZE, GRID, WORKING_PX, FPS
+    fitted at the altimeter's working scale ``working_px`` (None: its default), coded as
+    H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames); also each worker's
+    initializer."""
+    global SIZE, GRID, WORKING_PX, FPS, H264_CRF
     SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
+    H264_CRF = h264_crf
     _altimeter.cache_clear()
 
 
@@ -779,6 +810,9 @@ def main() -> int:
                          "drawn log-uniform over LO-HI; default deep water")
     ap.add_argument("--tell-depth", action="store_true",
                     help="give the altimeter the water's depth (water_depth_m)")
+    ap.add_argument("--h264-crf", type=int, default=None,
+                    help="code each clip as H.264 video (libx264, its default preset) at this "
+                         "constant rate factor, 0-51, instead of 8-bit frames or JPEG stills")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -798,6 +832,8 @@ def main() -> int:
         ap.error(f"--size must be within 64-2048 px; got {a.size}")
     if a.working_px is not None and a.working_px < 0:
         ap.error(f"--working-px must be >= 0; got {a.working_px}")
+    if a.h264_crf is not None and not 0 <= a.h264_crf <= 51:
+        ap.error(f"--h264-crf must be within 0-51; got {a.h264_crf}")
     depth = None
     if a.depth_m is not None:
         try:
@@ -810,7 +846,7 @@ def main() -> int:
         depth = (vals[0], vals[-1])
     if a.tell_depth and depth is None:
         ap.error("--tell-depth needs --depth-m")
-    set_size(a.size, a.working_px, a.fps)
+    set_size(a.size, a.working_px, a.fps, a.h264_crf)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -821,7 +857,8 @@ def main() -> int:
                   camera=camera, tell_readout=a.tell_readout, depth_m=depth,
                   tell_depth=a.tell_depth)
     t0, records = time.perf_counter(), list[dict]()
-    pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps))
+    pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
+                                                                     a.h264_crf))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -834,6 +871,7 @@ def main() -> int:
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
                "tell_depth": a.tell_depth, "size": a.size, "working_px": a.working_px,
+               "h264_crf": a.h264_crf,
                "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}

@@ -166,3 +166,29 @@ def test_shallow_water_changes_the_waves_and_not_the_scene(tmp_path) -> None:
                           (("--depth-m", "0,1"), "--depth-m must be D or LO,HI")):
         bad = _run("--clips", "1", *args)
         assert bad.returncode == 2 and message in bad.stderr
+
+
+def test_h264_coding_changes_the_frames_and_not_the_scene(tmp_path) -> None:
+    """``--h264-crf`` codes the clip as a video stream (libx264) instead of 8-bit frames or
+    JPEG stills: the scene is the one drawn without it; the coded frames are close to the
+    uncoded ones, not equal, and closer the lower the rate factor; a rate factor outside
+    0-51 is refused in one line."""
+    clips, truths = {}, {}
+    for crf in ("", "12", "30"):
+        name = crf or "none"
+        args = ("--h264-crf", crf) if crf else ()
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", *args,
+                   "--save-clips", str(tmp_path / name), "--out", str(tmp_path / f"{name}.json"))
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert json.loads((tmp_path / f"{name}.json").read_text())["h264_crf"] == (
+            int(crf) if crf else None)
+        clips[name] = np.load(tmp_path / name / "clip5.npy").astype(np.float64)
+        truths[name] = json.loads((tmp_path / name / "clip5.json").read_text())
+    drawn = set(truths["none"]) - {"texture_dn", "noise_dn"}
+    assert all({k: t[k] for k in drawn} == {k: truths["none"][k] for k in drawn}
+               for t in truths.values())
+    err = {n: float(np.abs(clips[n] - clips["none"]).mean()) for n in ("12", "30")}
+    assert clips["12"].shape == clips["none"].shape
+    assert 0.0 < err["12"] < err["30"] < 8.0
+    bad = _run("--clips", "1", "--h264-crf", "60")
+    assert bad.returncode == 2 and "--h264-crf must be within 0-51; got 60" in bad.stderr

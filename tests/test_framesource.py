@@ -105,12 +105,13 @@ def test_the_altitude_of_a_video_read_window_by_window_is_the_one_from_memory(
 
 
 @pytest.mark.parametrize(("codec", "name"), [("libx264", "h264"), ("mpeg4", "mpeg4"),
-                                             ("mjpeg", None)])
+                                             ("mjpeg", None), ("ffv1", None)])
 def test_a_codec_that_predicts_frames_from_others_is_named(tmp_path, codec, name) -> None:
-    """H.264 and MPEG-4 code most frames from other frames (their packets are not key
-    frames); Motion JPEG codes every frame alone."""
+    """H.264 and MPEG-4 code most frames from other frames, with loss (their packets are
+    not key frames); Motion JPEG codes every frame alone; FFV1 predicts without loss."""
     frames = np.stack([np.roll(_texture(), t, axis=1) for t in range(12)])  # moving
-    write_video(tmp_path / "clip.mp4", frames, codec=codec)
-    assert predicting_codec(tmp_path / "clip.mp4") == name
+    path = tmp_path / ("clip.mkv" if codec == "ffv1" else "clip.mp4")
+    write_video(path, frames, codec=codec)
+    assert predicting_codec(path) == name
     with pytest.raises(FileNotFoundError, match="video file not found"):
         predicting_codec(tmp_path / "missing.mp4")

@@ -58,16 +58,23 @@ def scan_video(path: Path | str) -> tuple[np.ndarray | None, int, int, int]:
     return t, len(pts), first.height, first.width
 
 
+def lossy_predicting(codec: Any) -> str | None:
+    """The name (FFmpeg's) of PyAV codec context ``codec`` where its codec is lossy, which a
+    codec that predicts frames from other frames then does with loss (H.264, HEVC, MPEG-4,
+    VP9); None for a lossless one (FFV1, raw video), whose predictions lose nothing."""
+    return codec.name if codec.codec.lossy else None
+
+
 def predicting_codec(path: Path | str) -> str | None:
     """The name (FFmpeg's) of the codec of video file ``path`` where it predicts frames from
-    other frames (a packet that is not a key frame: H.264, HEVC, ... with P- or B-frames),
-    None where every frame is coded alone (Motion JPEG, all-key-frame video); from the
-    packets, no frame decoded (:mod:`wavealt.altimetry.coding` says what prediction does to
-    a fit)."""
+    other frames with loss (a packet that is not a key frame, of a lossy codec: H.264, HEVC,
+    ... with P- or B-frames), None where every frame is coded alone (Motion JPEG,
+    all-key-frame video) or the codec is lossless (FFV1); from the packets, no frame decoded
+    (:mod:`wavealt.altimetry.coding` says what such prediction does to a fit)."""
     with open_video(path) as container:
         stream = container.streams.video[0]
         predicted = any(p.size and not p.is_keyframe for p in container.demux(stream))
-        return stream.codec_context.name if predicted else None
+        return lossy_predicting(stream.codec_context) if predicted else None
 
 
 class _Windows:

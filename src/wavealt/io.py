@@ -384,10 +384,10 @@ def write_video(path: Path | str, frames: np.ndarray, *, fps: float = 30.0,
     with av.open(str(path), mode="w") as container:
         stream = container.add_stream(codec, rate=Fraction(fps).limit_denominator(1000))
         stream.width, stream.height = arr.shape[2], arr.shape[1]
-        # Motion JPEG codes every frame alone (full-range YUV)
+        # Motion JPEG codes every frame alone (full-range YUV); FFV1 is lossless
         stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
-        stream.options = {"mpeg4": {"qscale": "2"},
-                          "mjpeg": {"qmin": "1", "qmax": "2"}}.get(codec, {"crf": "12"})
+        stream.options = {"mpeg4": {"qscale": "2"}, "mjpeg": {"qmin": "1", "qmax": "2"},
+                          "ffv1": {}}.get(codec, {"crf": "12"})
         if times_s is not None:
             stream.codec_context.time_base = Fraction(1, 60000)
         for i, img in enumerate(arr):

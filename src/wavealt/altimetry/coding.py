@@ -12,8 +12,9 @@ without the velocity slides up that ridge, and its uncertainty does not see it. 
 velocity given exactly the shell is read where it is.  ``docs/dispersion.md`` (forty-third
 session) has the measurements.
 
-So a window of predicted frames is not trusted unless the fit had the velocity exactly.
-Intra-coded video (Motion JPEG, all-key-frame H.264) and image folders are not affected.
+So a window of frames predicted with loss is not trusted unless the fit had the velocity
+exactly.  Intra-coded video (Motion JPEG, all-key-frame H.264), lossless codecs (FFV1, raw
+video) and image folders are not affected.
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ import numpy as np
 
 from wavealt._checks import check_finite_number, check_integer
 from wavealt.altimetry.coding import predicted_verdict
+from wavealt.framesource import lossy_predicting
 from wavealt.io import nominal_rate, one_second_window, regular_runs
 
 #: Columns of ``live.csv``, one row per estimate.
@@ -89,7 +90,7 @@ class FrameReader(threading.Thread):
         self.new_frame = threading.Condition(self.lock)
         self.stop_event = threading.Event()
         self.stats = ReaderStats()
-        self.codec: str | None = None  # FFmpeg's name of the stream's codec, once open
+        self.codec: str | None = None  # FFmpeg's name of the stream's lossy codec, once open
 
     def run(self) -> None:
         import av  # deferred: 0.4 s of the command line's start-up
@@ -100,7 +101,8 @@ class FrameReader(threading.Thread):
                 if not container.streams.video:
                     self._fail(f"{self.source} holds no video stream")
                     return
-                self.codec = container.streams.video[0].codec_context.name
+                # a lossless codec's predictions lose nothing (FFV1): not named
+                self.codec = lossy_predicting(container.streams.video[0].codec_context)
                 self.stats.opened.set()
                 start = None
                 for n, frame in enumerate(container.decode(video=0)):
@@ -271,7 +273,7 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
             fps = (len(times) - 1) / (times[-1] - times[0])
             res = estimate(np.stack([it.frame for it in items]), float(fps),
                            np.array([it.arrival for it in items]))
-            if any(it.predicted for it in items):
+            if reader.codec is not None and any(it.predicted for it in items):
                 predicted_by = reader.codec
                 res = predicted_verdict(res, predicted_by, altitude_range_m)
             if on_estimate is not None:

@@ -205,8 +205,9 @@ class Clip:
     ``(T,)`` seconds from the first frame, strictly increasing; ``source_fps``: the rate the
     source records (a video's timestamps, ``--fps`` or the CSV's median spacing);
     ``timing``: where the times came from (``"timestamps"``, ``"fps"``, ``"csv"``);
-    ``predicted_by``: the codec of a video that predicts frames from other frames
-    (:func:`wavealt.framesource.predicting_codec`), None for frames coded alone.
+    ``predicted_by``: the codec of a video that predicts frames from other frames with loss
+    (:func:`wavealt.framesource.predicting_codec`), None for frames coded alone or without
+    loss.
     """
 
     frames: Any

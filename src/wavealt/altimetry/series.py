@@ -90,9 +90,9 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
         Called with each window's row as soon as it is estimated (e.g. to send it to a
         flight controller).
     predicted_by : str, optional
-        The codec of a video that predicts frames from other frames, which the frames were
-        decoded from (:func:`wavealt.framesource.predicting_codec`): a window not given the
-        velocity exactly is then not trusted (:func:`.coding.predicted_verdict`).
+        The codec of a video that predicts frames from other frames with loss, which the
+        frames were decoded from (:func:`wavealt.framesource.predicting_codec`): a window not
+        given the velocity exactly is then not trusted (:func:`.coding.predicted_verdict`).
     **kw
         Options of :class:`DispersionAltimeter` (``dispersion``, ``deglint``, ...).
 
@@ -142,8 +142,10 @@ def altitude_series(frames: np.ndarray, *, fps: float | None = None, focal_px: f
         if on_window is not None:
             on_window(rows[-1])
     summary = summarize(rows, frames=int(arr.shape[0]))
-    if predicted_by is not None and summary["mode"] != "exact" and not summary["trusted"]:
-        summary["reason"] = PREDICTED_FRAMES.format(codec=predicted_by)
+    if predicted_by is not None and not summary["trusted"]:
+        refused = PREDICTED_FRAMES.format(codec=predicted_by)
+        if any(r["reason"] == refused for r in rows):  # they say more than "none trusted"
+            summary["reason"] = refused
     summary["predicted_by"] = predicted_by
     summary["dropped_frames"] = int(dropped)
     summary["unused_frames"] = int(arr.shape[0] - len({i for a, b in ranges for i in range(a, b)}))

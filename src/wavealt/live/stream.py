@@ -187,8 +187,8 @@ def run_live(source: str, *, estimate: Callable[[np.ndarray, float], dict[str, A
     real time would give every window a wrong rate, and the altitude goes as its inverse
     square).  A rate or duration that is not a positive number, a window of fewer than 3
     frames, or a step or capacity below 1 is a ``ValueError`` before the source is opened.
-    A window that holds frames the codec predicted from other frames, estimated without the
-    velocity exactly, is not trusted (:func:`~wavealt.altimetry.coding.predicted_verdict`;
+    A window that holds frames a lossy codec predicted from other frames, estimated without
+    the velocity exactly, is not trusted (:func:`~wavealt.altimetry.coding.predicted_verdict`;
     ``altitude_range_m``, the altimeter's range, is then its 3-sigma interval); the summary
     names such a codec (``predicted_by``).
     """

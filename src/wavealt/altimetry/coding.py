@@ -25,8 +25,8 @@ from typing import Any
 #: the codec's name, as FFmpeg gives it).
 PREDICTED_FRAMES = ("the frames were decoded from {codec} video, which predicts frames from "
                     "other frames: its motion-compensated texture biases a fit without the "
-                    "velocity high (by 1-12 % in our tests); give the velocity exactly "
-                    "(--velocity-mps) or intra-coded frames")
+                    "velocity high (by 1-12 % in our tests); give the camera's velocity over "
+                    "the water exactly (--velocity-mps) or intra-coded frames")
 
 
 def predicted_verdict(result: dict[str, Any], codec: str | None,

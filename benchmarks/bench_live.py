@@ -95,7 +95,7 @@ def main() -> None:
         threading.Thread(target=sample, daemon=True).start()
         errs = []
 
-        def estimate(frames: np.ndarray, fps: float) -> dict:
+        def estimate(frames: np.ndarray, fps: float, arrivals: np.ndarray) -> dict:
             r = est.estimate(frames, fps=fps, focal_px=cfg.focal_px, velocity_mps=vel).to_dict()
             errs.append(abs(r["altitude_m"] / sc.altitude_m - 1))
             return r

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from wavealt.altimetry.dispersion.result import refuse
+
 #: Why a fit of predicted frames without the exact velocity is not trusted (``{codec}``:
 #: the codec's name, as FFmpeg gives it).
 PREDICTED_FRAMES = ("the frames were decoded from {codec} video, which predicts frames from "
@@ -36,13 +38,9 @@ def predicted_verdict(result: dict[str, Any], codec: str | None,
     where its frames came from a video whose codec ``codec`` predicts frames from others and
     the fit was not given the velocity exactly (``mode`` other than ``"exact"``); unchanged
     where ``codec`` is None (frames not predicted) or the velocity was exact."""
-    if codec is None or result.get("mode") == "exact" or not result.get("trusted"):
+    if codec is None or result.get("mode") == "exact":
         return result
-    lo, hi = altitude_range_m
-    result["trusted"] = False
-    result["reason"] = PREDICTED_FRAMES.format(codec=codec)
-    result["altitude_std_m"] = max(float(result["altitude_std_m"]), (hi - lo) / 3.0)
-    return result
+    return refuse(result, PREDICTED_FRAMES.format(codec=codec), altitude_range_m)
 
 
 def simulated_codec(config: Any) -> str | None:

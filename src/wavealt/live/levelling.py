@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from wavealt.altimetry.dispersion.jitter import detrend
+from wavealt.altimetry.dispersion.result import refuse
 from wavealt.live.latency import MEASURE_EVERY, SETTLE_WINDOWS, SHAKE_MIN_RATIO, LatencyMeter
 
 #: Views kept per stream (each a half-degree box of attitudes, or one attitude).
@@ -187,11 +188,7 @@ def judge(result: dict[str, Any], info: dict[str, Any],
     info = dict(info)
     reason = info.pop("distrust", None)
     result.update(info)
-    if reason is not None and result.get("trusted"):
-        lo, hi = altitude_range_m
-        result["trusted"], result["reason"] = False, reason
-        result["altitude_std_m"] = max(float(result["altitude_std_m"]), (hi - lo) / 3.0)
-    return result
+    return result if reason is None else refuse(result, reason, altitude_range_m)
 
 
 __all__ = ["CORNER_RADIUS", "MAX_VIEWS", "MAX_YAW_WAVER_DEG", "VehicleLevelling", "judge"]

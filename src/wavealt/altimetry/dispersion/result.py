@@ -26,6 +26,20 @@ def reason_counts(reasons: Iterable[str | None]) -> dict[str, int]:
     return dict(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
+def refuse(result: dict[str, Any], reason: str,
+           altitude_range_m: tuple[float, float]) -> dict[str, Any]:
+    """``result`` (a :meth:`DispersionResult.to_dict`), in place and returned: NOT TRUSTED
+    for ``reason``, its 3-sigma interval spanning ``altitude_range_m`` as the altimeter's
+    untrusted results' do, where it was trusted; unchanged where it was not (its own reason
+    stands).  For the verdicts a caller adds on what the altimeter could not see (the
+    vehicle's motion, a video codec's predictions)."""
+    if result.get("trusted"):
+        lo, hi = altitude_range_m
+        result["trusted"], result["reason"] = False, reason
+        result["altitude_std_m"] = max(float(result["altitude_std_m"]), (hi - lo) / 3.0)
+    return result
+
+
 @dataclass
 class DispersionResult:
     """The outcome of one dispersion fit.

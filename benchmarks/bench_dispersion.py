@@ -216,13 +216,15 @@ def init_process() -> None:
     warm_up()
 
 
-def estimator(dispersion: str, attitude: str = "estimate") -> Any:
+def estimator(dispersion: str, attitude: str = "estimate",
+              attitude_sigma_deg: float | None = None) -> Any:
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
-    if (dispersion, attitude) not in _ESTIMATORS:
-        _ESTIMATORS[dispersion, attitude] = DispersionAltimeter(dispersion=dispersion,
-                                                                attitude=attitude)
-    return _ESTIMATORS[dispersion, attitude]
+    key = (dispersion, attitude, attitude_sigma_deg)
+    if key not in _ESTIMATORS:
+        _ESTIMATORS[key] = DispersionAltimeter(dispersion=dispersion, attitude=attitude,
+                                               attitude_sigma_deg=attitude_sigma_deg)
+    return _ESTIMATORS[key]
 
 
 # -- sequences and their cache ----------------------------------------------------------------
@@ -358,10 +360,11 @@ def given_velocity(row: RowSpec, sc: Any) -> tuple[tuple[float, float] | None, f
 
 def timed_estimate(row: RowSpec, frames: np.ndarray, cfg: Any,
                    velocity: tuple[float, float] | None, sigma: float,
-                   attitude: str = "estimate") -> tuple[Any, float]:
+                   attitude: str = "estimate",
+                   attitude_sigma_deg: float | None = None) -> tuple[Any, float]:
     """``(result or the ValueError it raised, seconds)`` of one ``estimate`` call; the first
     call of a row in a process is repeated untimed first (imports, FFT plans)."""
-    est = estimator(row.dispersion, attitude)
+    est = estimator(row.dispersion, attitude, attitude_sigma_deg)
 
     def call() -> Any:
         return est.estimate(frames, fps=cfg.fps, focal_px=cfg.focal_px, velocity_mps=velocity,
@@ -410,9 +413,10 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
 
 def run_sequence(task: tuple) -> list[dict[str, Any]]:
     """Window records (one per condition) of sequence ``index`` of a row and seed: ``task``
-    is ``(row, seed, index, sequences, size, use_cache, sensor, attitude)`` (:func:`tasks_of`;
-    ``sensor``: :func:`sim_config`'s, ``attitude``: :class:`DispersionAltimeter`'s)."""
-    name, seed, index, sequences, size, use_cache, sensor, attitude = task
+    is ``(row, seed, index, sequences, size, use_cache, sensor, attitude,
+    attitude_sigma_deg)`` (:func:`tasks_of`; ``sensor``: :func:`sim_config`'s, the last two
+    :class:`DispersionAltimeter`'s)."""
+    name, seed, index, sequences, size, use_cache, sensor, attitude, attitude_sd = task
     row = row_of(name)
     cfg = sim_config(row.preset, row.frames, seed, sequences, size, sensor)
     sc = cfg.sample_scenario(index)
@@ -425,7 +429,7 @@ def run_sequence(task: tuple) -> list[dict[str, Any]]:
                 for c in CONDITIONS]
     out = []
     for c in CONDITIONS:
-        res, dt = timed_estimate(row, frames[c], cfg, velocity, sigma, attitude)
+        res, dt = timed_estimate(row, frames[c], cfg, velocity, sigma, attitude, attitude_sd)
         out.append({**base, "condition": c, **result_fields(res, sc.altitude_m),
                     "latency_ms": 1e3 * dt})
     return out
@@ -576,8 +580,9 @@ def targets() -> dict[str, Any]:
 # -- running -----------------------------------------------------------------------------------
 def tasks_of(rows: Iterable[RowSpec], seeds: Sequence[int], sequences: int, size: int,
              use_cache: bool, sensor: tuple[tuple[str, Any], ...] = (),
-             attitude: str = "estimate") -> list[tuple]:
-    return [(r.name, s, i, sequences, size, use_cache, sensor, attitude)
+             attitude: str = "estimate",
+             attitude_sigma_deg: float | None = None) -> list[tuple]:
+    return [(r.name, s, i, sequences, size, use_cache, sensor, attitude, attitude_sigma_deg)
             for r in rows for s in seeds for i in range(sequences)]
 
 
@@ -676,6 +681,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="what the altimeter is told of the camera's attitude: nothing (it "
                          "measures a tilt from the frame's corners), or that it looks straight "
                          "down (a gimbal; DispersionAltimeter(attitude='level'))")
+    ap.add_argument("--attitude-sigma-deg", type=float, default=None, metavar="S",
+                    help="with --attitude estimate: the camera looks straight down within S "
+                         "degrees a side, one sigma (a gimbal; DispersionAltimeter("
+                         "attitude_sigma_deg=S)); default: its attitude is not known")
     ap.add_argument("--fov-deg", type=float, default=None,
                     help="the camera's horizontal field of view, degrees (default: the "
                          "presets', 60)")
@@ -715,6 +724,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
             ap.error(f"{flag} needs --compression h264; got --compression {args.compression}")
     if args.fps is not None and not 5.0 <= args.fps <= 240.0:
         ap.error(f"--fps must be within 5-240; got {args.fps:g}")
+    if args.attitude_sigma_deg is not None:
+        if args.attitude != "estimate":
+            ap.error("--attitude-sigma-deg goes with --attitude estimate")
+        if not 0.0 < args.attitude_sigma_deg <= 15.0:
+            ap.error(f"--attitude-sigma-deg must be in (0, 15]; got {args.attitude_sigma_deg:g}")
     if args.fov_deg is not None and not 10.0 <= args.fov_deg <= 150.0:
         ap.error(f"--fov-deg must be within 10-150; got {args.fov_deg:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
@@ -733,7 +747,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_cache:
         check_cache(args.prune_cache)
     tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache,
-                     args.sensor, args.attitude)
+                     args.sensor, args.attitude, args.attitude_sigma_deg)
     recs = run_tasks(tasks, args.workers)
     rows = {r.name: row_report(r, args.seeds, [x for x in recs if x["row"] == r.name])
             for r in args.rows}
@@ -749,7 +763,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "sequences_per_seed": args.sequences, "size_px": args.size,
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
-            "attitude": args.attitude,
+            "attitude": args.attitude, "attitude_sigma_deg": args.attitude_sigma_deg,
             "realistic_camera": realistic_camera(args.sensor, args.size),
             "fps": camera.fps, "fov_deg": camera.fov_deg,
             "frames": "each row generates its sequences with frames=F directly",

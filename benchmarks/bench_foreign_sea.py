@@ -524,19 +524,22 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
 WORKING_PX: int | None = None
 #: the clips coded as H.264 video at this constant rate factor (``--h264-crf``; None: not)
 H264_CRF: int | None = None
+#: the altimeter told that the camera looks straight down within this many degrees a side
+#: (``--attitude-sigma-deg``, ``DispersionAltimeter(attitude_sigma_deg=)``; None: not told)
+ATTITUDE_SIGMA_DEG: float | None = None
 
 
 def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
-             h264_crf: int | None = None) -> None:
+             h264_crf: int | None = None, attitude_sigma_deg: float | None = None) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
     grows with them, its margin around the frame in the same proportion), ``fps`` of them a
     second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
     fitted at the altimeter's working scale ``working_px`` (None: its default), coded as
     H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames); also each worker's
     initializer."""
-    global SIZE, GRID, WORKING_PX, FPS, H264_CRF
+    global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG
     SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
-    H264_CRF = h264_crf
+    H264_CRF, ATTITUDE_SIGMA_DEG = h264_crf, attitude_sigma_deg
     _altimeter.cache_clear()
 
 
@@ -548,7 +551,7 @@ def _altimeter(water_depth_m: float | None = None) -> Any:
 
     kw = {} if WORKING_PX is None else {"working_px": WORKING_PX}
     return DispersionAltimeter(dispersion="gravity-capillary", water_depth_m=water_depth_m,
-                               **kw)
+                               attitude_sigma_deg=ATTITUDE_SIGMA_DEG, **kw)
 
 
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
@@ -813,6 +816,11 @@ def main() -> int:
     ap.add_argument("--h264-crf", type=int, default=None,
                     help="code each clip as H.264 video (libx264, its default preset) at this "
                          "constant rate factor, 0-51, instead of 8-bit frames or JPEG stills")
+    ap.add_argument("--attitude-sigma-deg", type=float, default=None, metavar="S",
+                    help="tell the altimeter that the camera looks straight down within S "
+                         "degrees a side, one sigma (a gimbal's prior of the tilt it "
+                         "measures; draw tilts to match with --max-tilt-deg 2S); default: not "
+                         "told")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -846,7 +854,9 @@ def main() -> int:
         depth = (vals[0], vals[-1])
     if a.tell_depth and depth is None:
         ap.error("--tell-depth needs --depth-m")
-    set_size(a.size, a.working_px, a.fps, a.h264_crf)
+    if a.attitude_sigma_deg is not None and not 0.0 < a.attitude_sigma_deg <= 15.0:
+        ap.error(f"--attitude-sigma-deg must be within (0, 15]; got {a.attitude_sigma_deg:g}")
+    set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -858,7 +868,8 @@ def main() -> int:
                   tell_depth=a.tell_depth)
     t0, records = time.perf_counter(), list[dict]()
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
-                                                                     a.h264_crf))
+                                                                     a.h264_crf,
+                                                                     a.attitude_sigma_deg))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -871,7 +882,7 @@ def main() -> int:
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
                "tell_depth": a.tell_depth, "size": a.size, "working_px": a.working_px,
-               "h264_crf": a.h264_crf,
+               "h264_crf": a.h264_crf, "attitude_sigma_deg": a.attitude_sigma_deg,
                "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}

@@ -26,13 +26,17 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--jpeg-quality", "0"), "--jpeg-quality must be in 1-100"),
     (("--h264-crf", "18"), "--h264-crf needs --compression h264; got --compression None"),
     (("--compression", "h264", "--h264-crf", "52"), "--h264-crf must be in 0-51; got 52"),
-    (("--compression", "jpeg", "--h264-preset", "medium"), "--h264-preset needs --compression h264"),
+    (("--compression", "jpeg", "--h264-preset", "medium"),
+     "--h264-preset needs --compression h264"),
     (("--compression", "h264", "--h264-preset", "turbo"), "invalid choice: 'turbo'"),
     (("--rows", "realistic-30-blnd"), "--rows: unknown"),
     (("--fps", "2"), "--fps must be within 5-240; got 2"),
     (("--fov-deg", "170"), "--fov-deg must be within 10-150; got 170"),
     (("--rows", "realistic-2-blind"), "--rows: unknown ['realistic-2-blind']"),
     (("--attitude", "tilted"), "argument --attitude: invalid choice: 'tilted'"),
+    (("--attitude-sigma-deg", "0"), "--attitude-sigma-deg must be in (0, 15]; got 0"),
+    (("--attitude", "level", "--attitude-sigma-deg", "1"),
+     "--attitude-sigma-deg goes with --attitude estimate"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = _run(*args)
@@ -88,14 +92,18 @@ def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic(
 
 def test_the_attitude_option_reaches_the_altimeter_of_every_task() -> None:
     """``--attitude level`` (a camera told to look straight down) travels with each task to
-    the worker's altimeter; without it the altimeter measures the tilt, as a user's does."""
+    the worker's altimeter, and so does ``--attitude-sigma-deg`` (a gimbal's prior of the tilt
+    measured); without them the altimeter measures the tilt, as a user's does."""
     bench = _bench_module()
     row = bench.ROW_BY_NAME["realistic-30-blind"]
     for attitude in ("estimate", "level"):
         (task,) = bench.tasks_of([row], [3], 1, 64, False, (), attitude)
-        assert task[-1] == attitude
+        assert task[-2:] == (attitude, None)
         assert bench.estimator(row.dispersion, attitude).attitude == attitude
-    assert bench.tasks_of([row], [3], 1, 64, False)[0][-1] == "estimate"
+    assert bench.tasks_of([row], [3], 1, 64, False)[0][-2:] == ("estimate", None)
+    # a gimbal's prior (--attitude-sigma-deg) travels with the tasks too
+    (task,) = bench.tasks_of([row], [3], 1, 64, False, (), "estimate", 2.0)
+    assert bench.estimator(row.dispersion, *task[-2:]).attitude_sigma_deg == 2.0
 
 
 def test_a_row_of_any_length_is_judged_against_the_contract_alone() -> None:

@@ -13,7 +13,7 @@ import pytest
 from contract import assert_honest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
-from wavealt.altimetry.dispersion.constants import TILE_SCATTER_LEVEL
+from wavealt.altimetry.dispersion.constants import ATTITUDE_PRIOR_SD_DEG, TILE_SCATTER_LEVEL
 from wavealt.altimetry.dispersion.search import weighted_spread
 from wavealt.altimetry.dispersion.trust import tile_scatter
 from wavealt.sim.config import preset_config
@@ -405,6 +405,64 @@ def test_cli_takes_frames_levelled_at_an_attitude_given_as_level(tmp_path, run_c
     assert code == 0, err
     res = json.loads(out)
     assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res
+
+
+def test_a_gimbals_prior_weighs_the_tilt_the_tiles_cannot_measure(tmp_path, run_cli) -> None:
+    """Waves on one side of the frame do not measure the camera's tilt; what a tilt within
+    the prior (``attitude_sigma_deg``) moves the altitude by joins its uncertainty, in
+    step with the prior: a gimbal known to 1 degree is trusted where an attitude not
+    known (the default, ``ATTITUDE_PRIOR_SD_DEG``) is not, and the default is that prior.
+    The command line takes it as ``--attitude-sigma-deg``, alone (nadir within it) or with an
+    attitude given, and names a bad one in one line."""
+    import json
+
+    from wavealt.io import write_frames_folder
+
+    near, v, focal = _slope_image(4.0, 3, frames=30)
+    one_side = near.copy()
+    one_side[:, :, :64] = 0.5
+    kw = {"fps": 30.0, "focal_px": focal, "velocity_mps": v}
+    default = DispersionAltimeter(dispersion="gravity").estimate(one_side, **kw)
+    named = DispersionAltimeter(dispersion="gravity", attitude_sigma_deg=ATTITUDE_PRIOR_SD_DEG
+                                ).estimate(one_side, **kw)
+    assert named.to_dict() == default.to_dict()
+    assert not default.trusted and "measure the camera's tilt" in default.reason, default
+    gimbal = DispersionAltimeter(dispersion="gravity", attitude_sigma_deg=1.0).estimate(
+        one_side, **kw)
+    assert gimbal.trusted and gimbal.altitude_m == default.altitude_m, gimbal
+    assert_honest(gimbal, 4.0)
+    with pytest.raises(ValueError, match="attitude_sigma_deg.*attitude='estimate'"):
+        DispersionAltimeter(attitude="level", attitude_sigma_deg=1.0)
+    for bad in (0.0, -1.0, float("nan"), 20.0):
+        with pytest.raises(ValueError, match="attitude_sigma_deg"):
+            DispersionAltimeter(attitude_sigma_deg=bad)
+    write_frames_folder(tmp_path / "clip", np.repeat(one_side[..., None], 3, axis=-1))
+    base = ["altitude", str(tmp_path / "clip"), "--fps", "30", "--focal-px", str(focal),
+            "--dispersion", "gravity", "--velocity-mps", ",".join(str(x) for x in v), "--json"]
+    for extra in ([], ["--roll-deg", "0", "--pitch-deg", "0"]):
+        code, out, err = run_cli([*base, *extra, "--attitude-sigma-deg", "1"])
+        assert code == 0, err
+        res = json.loads(out)
+        assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res
+    code, out, err = run_cli([*base, "--attitude-sigma-deg", "0"])
+    assert code != 0 and "--attitude-sigma-deg must be in (0, 15] degrees; got 0.0" in err
+
+
+def test_the_command_lines_altimeter_takes_an_attitude_given_exactly_unless_told_its_error(
+        ) -> None:
+    """Recorded and live, an attitude given levels the frames and is the truth (``level``)
+    unless ``--attitude-sigma-deg`` gives its error, which the levelled frames' tilt is then
+    measured against; without an attitude the tilt is measured against that prior, or the
+    default one."""
+    from wavealt.cli.altitude import attitude_prior
+
+    assert attitude_prior(True, None) == {"attitude": "level"}
+    assert attitude_prior(False, None) == {"attitude": "estimate"}
+    for known in (True, False):
+        kw = attitude_prior(known, 1.5)
+        assert kw == {"attitude": "estimate", "attitude_sigma_deg": 1.5}
+        assert DispersionAltimeter(**kw).attitude_sigma_deg == 1.5
+    assert DispersionAltimeter().attitude_sigma_deg == ATTITUDE_PRIOR_SD_DEG
 
 
 def test_a_fit_that_its_tiles_do_not_read_is_not_trusted() -> None:

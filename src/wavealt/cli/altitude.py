@@ -73,6 +73,14 @@ if TYPE_CHECKING:  # annotations only: numpy is 0.1 s of --help
 @click.option("--attitude", type=click.Path(path_type=Path), default=None, metavar="CSV",
               help="Per-frame attitude: a CSV with time_s, roll_deg, pitch_deg on the frames' "
                    "clock, interpolated at each frame (instead of --roll-deg / --pitch-deg).")
+@click.option("--attitude-sigma-deg", type=float, default=None, metavar="S",
+              help="How far the camera may be tilted, degrees (one sigma about each axis), "
+                   "from the attitude given (--roll-deg / --pitch-deg, --attitude, "
+                   "--tilt-from-vehicle) or, with none given, from looking straight down (a "
+                   "gimbal's error): the tilt the frames' corner tiles show is weighed against "
+                   "it, and what they cannot measure of it joins the uncertainty.  [default: "
+                   "an attitude given is exact; none given, a tilt of up to about 15 degrees, "
+                   "7.5 a side]")
 @click.option("--window", type=int, default=None,
               help="Frames per estimate; longer inputs are cut into sliding windows "
                    "[1 s of frames, at least 10].")
@@ -131,8 +139,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
              fps: float | None, force_fps: bool, frame_times: Path | None,
              focal_px: float | None, fov_deg: float | None, calibration: Path | None,
              roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
-             window: int | None, step: int | None, dispersion: str,
-             water_depth_m: float | None, velocity_mps: str | None,
+             attitude_sigma_deg: float | None, window: int | None, step: int | None,
+             dispersion: str, water_depth_m: float | None, velocity_mps: str | None,
              velocity_sigma_mps: float | None, readout_ms: float | None,
              yaw_rate_dps: float | None, camera_latency_ms: float | None, as_json: bool,
              out: Path | None, force: bool, mavlink: str | None, mavlink_range: str) -> None:
@@ -181,6 +189,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         if not (math.isfinite(velocity_sigma_mps) and velocity_sigma_mps >= 0):
             msg = f"--velocity-sigma-mps must be a finite number >= 0; got {velocity_sigma_mps!r}"
             raise ValueError(msg)
+    if attitude_sigma_deg is not None and not (math.isfinite(attitude_sigma_deg)
+                                               and 0 < attitude_sigma_deg <= 15):
+        msg = f"--attitude-sigma-deg must be in (0, 15] degrees; got {attitude_sigma_deg!r}"
+        raise ValueError(msg)
     if readout_ms is not None and not (math.isfinite(readout_ms) and readout_ms >= 0):
         msg = f"--readout-ms must be a finite number >= 0; got {readout_ms!r}"
         raise ValueError(msg)
@@ -200,7 +212,8 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             dispersion = "gravity-capillary"
         _altitude_live(live, live_format=live_format, duration=duration, focal_px=focal_px,
                        fov_deg=fov_deg, calibration=calibration, roll_deg=roll_deg,
-                       pitch_deg=pitch_deg, attitude=attitude, window=window, step=step,
+                       pitch_deg=pitch_deg, attitude=attitude,
+                       attitude_sigma_deg=attitude_sigma_deg, window=window, step=step,
                        dispersion=dispersion, water_depth_m=water_depth_m, velocity=velocity,
                        velocity_sigma_mps=velocity_sigma_mps, readout_s=readout_s,
                        yaw_rate_dps=yaw_rate_dps,
@@ -227,13 +240,11 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
         fov_v = 2 * math.atan(frames.shape[1] / (2 * focal_px))
         link = MavlinkLink(mavlink, min_m=lo, max_m=hi, fov_rad=(fov_h, fov_v))
     try:
-        # an attitude given levels the frames: the altimeter takes them as level (and does
-        # not allow for a tilt it cannot measure)
         known = attitude is not None or (roll_deg, pitch_deg) != (None, None)
         summary, rows = altitude_series(
             frames, times_s=clip.times_s, focal_px=focal_px, window=window, step=step,
             dispersion=dispersion, water_depth_m=water_depth_m,
-            attitude="level" if known else "estimate", out=out,
+            **attitude_prior(known, attitude_sigma_deg), out=out,
             velocity_mps=velocity,
             velocity_sigma_mps=velocity_sigma_mps or 0.0, readout_s=readout_s,
             yaw_rate_dps=yaw_rate_dps, predicted_by=clip.predicted_by,
@@ -282,7 +293,7 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
                    focal_px: float | None, fov_deg: float | None, calibration: Path | None,
                    roll_deg: float | None, pitch_deg: float | None, attitude: Path | None,
                    window: int | None, step: int | None, dispersion: str,
-                   water_depth_m: float | None,
+                   water_depth_m: float | None, attitude_sigma_deg: float | None,
                    velocity: tuple[float, float] | None, velocity_sigma_mps: float | None,
                    readout_s: float, yaw_rate_dps: float | None, latency_s: float | None,
                    velocity_from_vehicle: bool, tilt_from_vehicle: bool, as_json: bool,
@@ -315,9 +326,8 @@ def _altitude_live(source: str, *, live_format: str | None, duration: float | No
     if out is not None:
         check_output_folder(out, (LIVE_FILE,), force=force)
         out.mkdir(parents=True, exist_ok=True)
-    # frames levelled at an attitude given (fixed, or the vehicle's) are taken as level
     est = {known: DispersionAltimeter(dispersion=dispersion, water_depth_m=water_depth_m,
-                                      attitude="level" if known else "estimate")
+                                      **attitude_prior(known, attitude_sigma_deg))
            for known in (False, True)}
     # the compiled loops before the stream opens (on a cold cache about 10 s, which would
     # otherwise hold up the first estimate); every window then takes them, exact ones too
@@ -465,3 +475,14 @@ def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
                              (frames.shape[0], oh, ow, *frames.shape[3:]), frames.dtype)
     return levelled, view.focal_px, (f"camera: {lens}levelled to nadir ({source}): "
                                      f"{ow}x{oh} px at focal {view.focal_px:.1f} px")
+
+
+def attitude_prior(known: bool, sigma_deg: float | None) -> dict[str, Any]:
+    """The altimeter's ``attitude`` and ``attitude_sigma_deg`` for frames levelled at an
+    attitude given (``known``; fixed, logged or the vehicle's) or not, ``sigma_deg`` how far
+    the camera may be tilted from it (None: not given).  Frames levelled at an attitude
+    given exactly are taken as level: no tilt is measured, nor allowed for; with a
+    ``sigma_deg`` the tilt left is measured against it."""
+    if sigma_deg is None:
+        return {"attitude": "level" if known else "estimate"}
+    return {"attitude": "estimate", "attitude_sigma_deg": sigma_deg}

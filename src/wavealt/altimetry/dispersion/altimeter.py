@@ -29,7 +29,7 @@ from wavealt.altimetry.dispersion.constants import (
     YAW_PASSES,
 )
 from wavealt.altimetry.dispersion.kernel import _one_blas_thread, use_compiled  # noqa: F401
-from wavealt.altimetry.dispersion.levelling import _Level
+from wavealt.altimetry.dispersion.levelling import _Level, attitude_prior_deg
 from wavealt.altimetry.dispersion.profile import _Profile
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.search import _Search
@@ -118,6 +118,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         uncertainty (:meth:`_unmeasured_tilt`); ``"level"``: the frames are fitted as those
         of a camera looking straight down (frames already levelled at an attitude known,
         :class:`wavealt.camera.NadirView`, may still be tilted by the attitude's error).
+    attitude_sigma_deg : float, optional
+        With ``"estimate"``: the prior of the tilt the tiles measure, one sigma per axis,
+        degrees, from the frames' nadir (a gimbal's; an attitude's error the frames were
+        levelled at); None: ``ATTITUDE_PRIOR_SD_DEG``, an attitude not known (:meth:`_level`).
     working_px : int
         Frames whose shorter side is at least twice this are binned first (``b x b`` px
         averaged, ``b`` the largest power of two up to ``MAX_BIN`` that leaves it at least
@@ -133,29 +137,25 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                  tiles: str = "full", signal: str = "auto", glint_r2: float = 0.3,
                  n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
                  sharpness: float = 5.0, corner_tiles: float = 0.4,
-                 attitude: str = "estimate", working_px: int = WORKING_PX) -> None:
-        check_choice("signal", signal, SIGNALS)
-        check_choice("attitude", attitude, ATTITUDES)
-        self.attitude = attitude
+                 attitude: str = "estimate", working_px: int = WORKING_PX,
+                 attitude_sigma_deg: float | None = None) -> None:
+        self.signal = check_choice("signal", signal, SIGNALS)
+        self.attitude = check_choice("attitude", attitude, ATTITUDES)
+        self.attitude_sigma_deg = attitude_prior_deg(attitude, attitude_sigma_deg)
         self.corner_tiles = check_finite_number("corner_tiles", corner_tiles, low=0.0, high=0.5)
-        self.signal = signal
         self.glint_r2 = check_finite_number("glint_r2", glint_r2, low=0.0, high=1.0)
         for name, v, least in (("working_px", working_px, 0), ("n_psi", n_psi, 16),
                                ("n_scan", n_scan, 8), ("n_groups", n_groups, 3)):
             if v is not None or name != "n_psi":
                 check_integer(name, v, low=least)
         self.n_psi = None if n_psi is None else int(n_psi)
-        self.working_px = int(working_px)
-        self.n_scan, self.n_groups = int(n_scan), int(n_groups)
+        self.working_px, self.n_scan, self.n_groups = int(working_px), int(n_scan), int(n_groups)
         self.sharpness = check_finite_number("sharpness", sharpness, low=1.0)
-        check_choice("tiles", tiles, TILES)
-        self.tiles = tiles
-        check_choice("dispersion", dispersion, DISPERSIONS)
-        check_choice("deglint", deglint, DEGLINTS)
-        self.dispersion = dispersion
+        self.tiles = check_choice("tiles", tiles, TILES)
+        self.dispersion = check_choice("dispersion", dispersion, DISPERSIONS)
+        self.deglint = check_choice("deglint", deglint, DEGLINTS)
         self.water_depth_m = None if water_depth_m is None else check_finite_number(
             "water_depth_m", water_depth_m, low=0.0, low_open=True)
-        self.deglint = deglint
         self.clip_sigma = check_finite_number("clip_sigma", clip_sigma, low=0.0, low_open=True)
         self.max_modes = check_integer("max_modes", max_modes, low=8)
         self.min_kappa_bins = check_finite_number("min_kappa_bins", min_kappa_bins, low=1.0)

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.attitude import (
     fit_tilt,
     measures_tilt,
@@ -17,7 +18,7 @@ from wavealt.altimetry.dispersion.attitude import (
 from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
-    ATTITUDE_PRIOR_SD,
+    ATTITUDE_PRIOR_SD_DEG,
     BLOCK_PERIOD_PX,
     TILE_SCATTER_LEVEL,
 )
@@ -32,9 +33,36 @@ UNCONFIRMED_TILT = ("the frames were levelled at the tilt their corner tiles sho
                     "levelled view's tiles do not confirm it (give the camera's attitude)")
 
 
+#: The largest prior of a camera's tilt, per axis, degrees: a tilt spread evenly over the
+#: disk of ``camera.MAX_TILT_DEG`` (30) has this standard deviation along each axis.
+MAX_ATTITUDE_SIGMA_DEG = 15.0
+
+
+def attitude_prior_deg(attitude: str, sigma_deg: float | None) -> float:
+    """The prior of a camera's tilt, per axis, degrees, that an altimeter of ``attitude``
+    given ``attitude_sigma_deg`` takes: ``ATTITUDE_PRIOR_SD_DEG`` where none is given; a
+    ``ValueError`` naming the parameter for one not in ``(0, MAX_ATTITUDE_SIGMA_DEG]`` or
+    given with ``attitude="level"`` (which takes the frames as level, with no tilt)."""
+    if sigma_deg is None:
+        return ATTITUDE_PRIOR_SD_DEG
+    if attitude != "estimate":
+        msg = (f"attitude_sigma_deg is the prior of a tilt the altimeter measures: give it "
+               f"with attitude='estimate', not {attitude!r}")
+        raise ValueError(msg)
+    return check_finite_number("attitude_sigma_deg", sigma_deg, low=0.0, low_open=True,
+                               high=MAX_ATTITUDE_SIGMA_DEG)
+
+
 class _Level:
-    """The levelling pass of :class:`DispersionAltimeter` (uses ``_fit``, ``_holds_shell``
-    and ``_corner_fits``)."""
+    """The levelling pass of :class:`DispersionAltimeter` (uses ``_fit``, ``_holds_shell``,
+    ``_corner_fits`` and ``attitude_sigma_deg``)."""
+
+    @property
+    def _attitude_prior_sd(self) -> float:
+        """The prior of the tilt (``attitude_sigma_deg``) as the standard deviation of each
+        of the sea normal's parts ``(a, b)`` (the sine of a tilt along each axis)."""
+        return math.sin(math.radians(getattr(self, "attitude_sigma_deg",
+                                             ATTITUDE_PRIOR_SD_DEG)))
 
     def _level(self, arr: np.ndarray, fps: float, focal_px: float,
                prior: tuple[float, float, float] | None, res: DispersionResult,
@@ -73,7 +101,7 @@ class _Level:
         The tilted model is kept only where the levelled view's tiles then read one scale
         (the scatter of those that hold the shell within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`) and are placed to see the tilt made (at least two,
-        measuring it along its direction better than the prior ``ATTITUDE_PRIOR_SD_DEG``,
+        measuring it along its direction better than the prior ``attitude_sigma_deg``,
         :func:`.attitude.measures_tilt`): a tilt that one tile's wrong peak made does not
         level the frames, and those are judged as given (``docs/dispersion.md``) where
         their fit held a shell's peak; where it held none, the levelled fit is kept, not
@@ -107,7 +135,8 @@ class _Level:
             return res, fits, p, focal, signal
         seen = _measuring(fits, weak)
         if (tile_scatter([f[2:] for f in fits], ATTITUDE_LEVEL) > 0.0
-                or not measures_tilt(seen, focal, ATTITUDE_PRIOR_SD, tuple(rot[2, :2]))):
+                or not measures_tilt(seen, focal, self._attitude_prior_sd,
+                                      tuple(rot[2, :2]))):
             # the levelled view's tiles do not read one scale either, or cannot see the tilt
             # made (two in a row, a tilt across it): the tilt measured was not shown to be
             # the frames' (one tile's peak off the shell, its sigma too small) and the frames

@@ -16,7 +16,6 @@ from wavealt.altimetry.dispersion.attitude import (
     unmeasured_tilt_var_log,
 )
 from wavealt.altimetry.dispersion.constants import (
-    ATTITUDE_PRIOR_SD,
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
     BLIND_SD_FLOOR_LOG,
@@ -339,7 +338,7 @@ class _Trust:
                          shape: tuple[int, int]) -> str | None:
         """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
         levelled by what a tilt its corner tiles ``fits`` (:meth:`_corner_fits`, the first
-        list) do not rule out moves it (the prior ``ATTITUDE_PRIOR_SD_DEG``): from three tiles
+        list) do not rule out moves it (the prior ``attitude_sigma_deg``): from three tiles
         on, the tilt within their precision (:func:`.attitude.unlevelled_tilt_var_log`; one
         8.7 degrees from nadir over a faint sea read 16 % high at 2.5 %), else the part they
         cannot measure (:func:`.attitude.unmeasured_tilt_var_log`; one 13 degrees from nadir read
@@ -348,9 +347,9 @@ class _Trust:
         the bar, else None."""
         # the corner tiles' places (:meth:`_corner_fits` cuts them so)
         tile = _corner_shape(*shape, self.corner_tiles or 0.4)
-        var = unlevelled_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD, tile)
+        var = unlevelled_tilt_var_log(fits, focal_px, self._attitude_prior_sd, tile)
         if var is None:
-            var = unmeasured_tilt_var_log(fits, focal_px, ATTITUDE_PRIOR_SD,
+            var = unmeasured_tilt_var_log(fits, focal_px, self._attitude_prior_sd,
                                           tile_centres(shape, tile))
         if var <= 0.0:
             return None

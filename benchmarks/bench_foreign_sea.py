@@ -2,7 +2,7 @@
 
     python benchmarks/bench_foreign_sea.py [--clips 40] [--seed 1000] [--out run.json]
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
-        [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie]
+        [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie|clouds]
         [--camera rolling,blur,autoexposure] [--tell-readout] [--depth-m D|LO,HI]
         [--tell-depth] [--save-clips DIR] [--self-check]
 
@@ -24,7 +24,10 @@ The generator is written from the physics alone; it shares no code with ``waveal
   pinhole camera at nadir; sky ``L(theta) = 1 + c sin^2 theta`` with a slight azimuthal
   gradient, or with ``--sky cie`` the CIE standard clear sky (ISO 15469 type 12: brighter
   toward the horizon and steeply toward the clip's sun, whose reflection is far from linear
-  in the slope); upwelling ``(1 - R) L_water``.  In a third of the clips a sun at 15-50 deg
+  in the slope), or with ``--sky clouds`` the gradient sky under fair-weather cumulus (cells
+  of 150-800 m under a 1-km base covering 20-70 % of the sky, 1.5-4 times the zenith's
+  radiance, their edges sharp or soft; :func:`cloud_cover`); upwelling ``(1 - R) L_water``.
+  In a third of the clips a sun at 15-50 deg
   zenith adds glitter: a Gaussian in the facet slope about the pixel's specular slope, its
   variance a fraction of Cox & Munk's (1954) ``0.003 + 0.00512 U10``; in the others the sun
   lies outside every facet's specular cone, and the term is left out.
@@ -67,6 +70,7 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache, partial
 from multiprocessing import Pool
 from pathlib import Path
+from statistics import NormalDist
 from typing import Any
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -92,8 +96,20 @@ PRIOR_SIGMA_MPS = 1.0  # the prior row's default sigma (--prior-sigma)
 #: sky radiance models (--sky): a level plus a horizon brightening and a slight gradient, or
 #: the CIE standard general sky type 12, clear and low turbidity (ISO 15469:2004 / CIE S 011,
 #: Darula & Kittler 2002), whose circumsolar brightening makes the reflected sky strongly
-#: non-linear in the facet slope
-SKIES = ("gradient", "cie")
+#: non-linear in the facet slope; or the gradient sky with fair-weather cumulus (``clouds``:
+#: :func:`cloud_cover`)
+SKIES = ("gradient", "cie", "clouds")
+#: the cumulus deck of ``--sky clouds``, in the tangent plane of the reflected ray
+#: (``(rx, ry) / rz``: horizontal distance over the cloud base's height): cosine waves of
+#: wavelength CLOUD_SCALE (0.15-0.8: 150-800 m cells under a 1-km base), their sum a unit
+#: normal field, thresholded to cover CLOUD_COVER of the sky with edges CLOUD_EDGE (in the
+#: field's sd) wide; the cloud CLOUD_BRIGHTNESS times the zenith's radiance (sunlit cumulus
+#: against a blue sky)
+CLOUD_WAVES = 24
+CLOUD_SCALE = (0.15, 0.8)
+CLOUD_COVER = (0.2, 0.7)
+CLOUD_EDGE = (0.05, 0.5)
+CLOUD_BRIGHTNESS = (1.5, 4.0)
 #: camera effects (--camera): a rolling shutter, motion blur over the exposure, automatic
 #: exposure
 CAMERA_EFFECTS = ("rolling", "blur", "autoexposure")
@@ -401,9 +417,13 @@ def sky_radiance(sc: Scene, rx: np.ndarray, ry: np.ndarray, rz: np.ndarray) -> n
     ``f(chi) = 1 + c (exp(d chi) - exp(d pi / 2)) + e cos^2 chi`` (``Z`` the ray's zenith
     angle, ``chi`` its angle from the sun, ``Z_s`` the sun's zenith angle); a ray below the
     horizon takes the horizon's gradation."""
-    if sc.sky == "gradient":
-        return (1 + sc.sky_c * (1 - np.clip(rz, 0, 1) ** 2)) * (
+    if sc.sky in ("gradient", "clouds"):
+        blue = (1 + sc.sky_c * (1 - np.clip(rz, 0, 1) ** 2)) * (
             1 + sc.sky_grad[0] * rx + sc.sky_grad[1] * ry)
+        if sc.sky == "gradient":
+            return blue
+        cover, bright = cloud_cover(sc, rx, ry, rz)
+        return blue * (1 - cover) + bright * cover
     a, b, c, d, e = CIE_CLEAR
     sun = sun_direction(sc)
 
@@ -415,6 +435,32 @@ def sky_radiance(sc: Scene, rx: np.ndarray, ry: np.ndarray, rz: np.ndarray) -> n
     gradation = 1 + a * np.exp(b / cos_z)
     cos_chi = (rx * sun[0] + ry * sun[1] + rz * sun[2]) / np.sqrt(rx**2 + ry**2 + rz**2)
     return indicatrix(cos_chi) * gradation / (indicatrix(sun[2]) * (1 + a * math.exp(b)))
+
+
+def cloud_cover(sc: Scene, rx: np.ndarray, ry: np.ndarray,
+                rz: np.ndarray) -> tuple[np.ndarray, float]:
+    """The share of each ray ``(rx, ry, rz)`` that a cumulus deck covers (0 to 1), and the
+    clouds' radiance in units of the zenith's, for ``--sky clouds`` (drawn from the clip's
+    stream ``(seed, 6)`` alone: the scene is the one drawn without them).  The deck is fixed
+    to the sky: a camera that moves sees its reflection stay put (the clouds, at infinity,
+    do not move in 1 s), the waves' slopes carrying it back and forth."""
+    g = np.random.default_rng((sc.seed, 6))
+    scale = g.uniform(*CLOUD_SCALE)
+    cover, edge, bright = (g.uniform(*CLOUD_COVER), g.uniform(*CLOUD_EDGE),
+                           g.uniform(*CLOUD_BRIGHTNESS))
+    angle = g.uniform(0, 2 * math.pi, CLOUD_WAVES)
+    k = 2 * math.pi / (scale * g.uniform(0.7, 1.4, CLOUD_WAVES))
+    phase = g.uniform(0, 2 * math.pi, CLOUD_WAVES)
+    tz = np.maximum(rz, 0.05)  # a ray at the horizon sees the deck's far edge
+    u, v = rx / tz, ry / tz
+    field = np.zeros(np.broadcast(u, v).shape)
+    for kj, aj, pj in zip(k, angle, phase):
+        field += np.cos(kj * (math.cos(aj) * u + math.sin(aj) * v) + pj)
+    field *= math.sqrt(2.0 / CLOUD_WAVES)  # unit variance
+    # the threshold that the unit normal exceeds with probability ``cover``, smoothed
+    thr = float(NormalDist().inv_cdf(1.0 - cover))
+    x = np.clip((field - thr) / edge + 0.5, 0.0, 1.0)
+    return x * x * (3 - 2 * x), bright
 
 
 def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
@@ -769,6 +815,24 @@ def self_check() -> bool:
            and float(np.max(np.abs(medians / base.exposure**2.2 - 1))) < 1e-12,
            f"whole vs stepped phases {phase_err:.1e}; rolling-shutter row vs direct "
            f"{row_err:.4f} of the texture; auto-exposed medians {medians.round(4).tolist()}")
+    # (8) the cumulus deck: over a wide stretch of the sky (60 x 60 of the base's height) it
+    # covers the share drawn, to within the sampling of its 24 waves; its radiance lies
+    # between the blue sky's and the clouds'; a scene under it is the one drawn without it
+    cloudy = replace(base, sky="clouds")
+    g = np.random.default_rng((cloudy.seed, 6))
+    g.uniform(*CLOUD_SCALE)
+    drawn = g.uniform(*CLOUD_COVER)
+    u = np.linspace(-30.0, 30.0, 600)
+    uu, vv = np.meshgrid(u, u)
+    rays = np.stack([uu, vv, np.ones_like(uu)]) / np.sqrt(1 + uu**2 + vv**2)
+    cover, bright = cloud_cover(cloudy, *rays)
+    lum, blue = sky_radiance(cloudy, *rays), sky_radiance(base, *rays)
+    between = bool(np.all(lum >= np.minimum(blue, bright) - 1e-12)
+                   and np.all(lum <= np.maximum(blue, bright) + 1e-12))
+    same = draw_scene(1, sky="clouds") == replace(draw_scene(1), sky="clouds")
+    report("cumulus deck", abs(float(np.mean(cover > 0.5)) - drawn) < 0.05 and between
+           and same, f"covers {float(np.mean(cover > 0.5)):.3f} of the sky, drawn "
+           f"{drawn:.3f}; clouds {bright:.2f} x the zenith")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")

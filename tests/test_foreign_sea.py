@@ -23,14 +23,14 @@ def test_the_generators_physics_checks_pass() -> None:
     """One wave's phase step, no advection when the current equals the drift, the slope
     variance of the spectrum, the altimeter's velocity convention, the tilted camera's
     rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
-    the CIE clear sky's luminance against the standard's formula, and the camera effects
+    the CIE clear sky's luminance against the standard's formula, the camera effects
     (phases taken whole or stepped, a rolling shutter's row against a direct render,
-    automatic exposure's gains), at 30 and 60 frames/s."""
+    automatic exposure's gains), and the cumulus deck's cover, at 30 and 60 frames/s."""
     for fps in ("30", "60"):  # at another frame rate too (--fps)
         res = _run("--self-check", "--fps", fps)
         assert res.returncode == 0, res.stdout + res.stderr[-2000:]
         lines = res.stdout.splitlines()
-        assert sum(line.startswith("PASS") for line in lines) == 7
+        assert sum(line.startswith("PASS") for line in lines) == 8
         assert not any(line.startswith("FAIL") for line in lines)
     bad = _run("--self-check", "--fps", "2")
     assert bad.returncode == 2 and "--fps must be within 5-240; got 2" in bad.stderr
@@ -68,11 +68,11 @@ def test_a_tilted_run_records_each_clips_tilt_and_refuses_a_bad_one(tmp_path) ->
     assert bad.returncode == 2 and "--max-tilt-deg must be within 0-30; got 45" in bad.stderr
 
 
-def test_a_cie_sky_run_changes_the_radiance_and_nothing_else(tmp_path) -> None:
-    """``--sky cie`` draws the same scenes (the sky draws nothing) and renders other frames;
-    an unknown sky is refused."""
+def test_a_cie_or_cloudy_sky_run_changes_the_radiance_and_nothing_else(tmp_path) -> None:
+    """``--sky cie`` and ``--sky clouds`` draw the same scenes (the sky draws nothing from
+    the scene's stream) and render other frames; an unknown sky is refused."""
     runs = {}
-    for sky in ("gradient", "cie"):
+    for sky in ("gradient", "cie", "clouds"):
         out = tmp_path / f"{sky}.json"
         res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--sky", sky,
                    "--save-clips", str(tmp_path / sky), "--out", str(out))
@@ -81,9 +81,10 @@ def test_a_cie_sky_run_changes_the_radiance_and_nothing_else(tmp_path) -> None:
         runs[sky] = json.loads((tmp_path / sky / "clip5.json").read_text())
     keep = {k: v for k, v in runs["gradient"].items() if k not in ("sky", "texture_dn",
                                                                      "noise_dn")}
-    assert keep == {k: runs["cie"][k] for k in keep}
-    assert runs["cie"]["sky"] == "cie" and runs["cie"]["texture_dn"] != runs["gradient"][
-        "texture_dn"]
+    for sky in ("cie", "clouds"):
+        assert keep == {k: runs[sky][k] for k in keep}
+        assert runs[sky]["sky"] == sky and runs[sky]["texture_dn"] != runs["gradient"][
+            "texture_dn"]
     bad = _run("--clips", "1", "--sky", "overcast")
     assert bad.returncode == 2 and "invalid choice: 'overcast'" in bad.stderr
 

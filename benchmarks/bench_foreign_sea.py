@@ -105,6 +105,10 @@ SKIES = ("gradient", "cie", "clouds")
 #: normal field, thresholded to cover CLOUD_COVER of the sky with edges CLOUD_EDGE (in the
 #: field's sd) wide; the cloud CLOUD_BRIGHTNESS times the zenith's radiance (sunlit cumulus
 #: against a blue sky)
+#: the spreading exponent s of ``--one-way`` seas (cos^2s of half the angle: 15-40 puts half
+#: the energy within about +-10-17 degrees of the wind), drawn from the clip's stream
+#: ``(seed, 7)``
+ONE_WAY_SPREAD = (15.0, 40.0)
 CLOUD_WAVES = 24
 CLOUD_SCALE = (0.15, 0.8)
 CLOUD_COVER = (0.2, 0.7)
@@ -182,7 +186,7 @@ class Scene:
 
 def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
                sky: str = "gradient", camera: tuple[str, ...] = (),
-               depth_m: tuple[float, float] | None = None) -> Scene:
+               depth_m: tuple[float, float] | None = None, one_way: bool = False) -> Scene:
     """The scene of clip ``seed`` (every parameter drawn from ``seed`` alone; the current's
     speed is its draw scaled to ``max_current``; the camera's tilt, even over the disc of
     radius ``max_tilt_deg``, its ``camera`` effects (:data:`CAMERA_EFFECTS`) and the water's
@@ -218,6 +222,8 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
     width, gain = r.uniform(0.05, 0.3), r.uniform(20, 100)
     exposure, full_well, read_e = r.uniform(0.3, 0.5), r.uniform(1000, 5000), r.uniform(2, 10)
     jpeg = int(r.integers(70, 93)) if r.random() < 0.5 else None
+    if one_way:  # a young sea running one way: no counter sea, a narrow spread (own stream)
+        share, spread = 0.0, np.random.default_rng((seed, 7)).uniform(*ONE_WAY_SPREAD)
     return Scene(seed, h, hfov, u10, gamma, spread, wind, share, kp_ratio, counter, drift,
                  current, sky_c, sky_grad, water, glinty, sun_z, sun_az, width, gain,
                  exposure, full_well, read_e, jpeg, tilt, toward, sky, **effects,
@@ -605,11 +611,11 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   max_tilt_deg: float = 0.0, sky: str = "gradient",
                   camera: tuple[str, ...] = (), tell_readout: bool = False,
                   depth_m: tuple[float, float] | None = None,
-                  tell_depth: bool = False) -> list[dict]:
+                  tell_depth: bool = False, one_way: bool = False) -> list[dict]:
     """One record per window of every row of clip ``seed``; ``tell_readout``: the altimeter
     is given the rolling shutter's readout time; ``tell_depth``: the water's depth (drawn
-    from ``depth_m``, :func:`draw_scene`)."""
-    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m)
+    from ``depth_m``, :func:`draw_scene`); ``one_way``: a sea running one way."""
+    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way)
     altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
@@ -875,6 +881,9 @@ def main() -> int:
     ap.add_argument("--depth-m", default=None, metavar="D|LO,HI",
                     help="water of finite depth, m: one depth for every clip, or each clip's "
                          "drawn log-uniform over LO-HI; default deep water")
+    ap.add_argument("--one-way", action="store_true",
+                    help="a young sea running one way: no counter-running sea, and a narrow "
+                         "spread (cos^2s with s drawn in 15-40 instead of 2-10)")
     ap.add_argument("--tell-depth", action="store_true",
                     help="give the altimeter the water's depth (water_depth_m)")
     ap.add_argument("--h264-crf", type=int, default=None,
@@ -929,7 +938,7 @@ def main() -> int:
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
                   camera=camera, tell_readout=a.tell_readout, depth_m=depth,
-                  tell_depth=a.tell_depth)
+                  tell_depth=a.tell_depth, one_way=a.one_way)
     t0, records = time.perf_counter(), list[dict]()
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
                                                                      a.h264_crf,
@@ -945,7 +954,8 @@ def main() -> int:
                "prior_sigma_mps": a.prior_sigma, "max_current_mps": a.max_current,
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
-               "tell_depth": a.tell_depth, "size": a.size, "working_px": a.working_px,
+               "tell_depth": a.tell_depth, "one_way": a.one_way, "size": a.size,
+               "working_px": a.working_px,
                "h264_crf": a.h264_crf, "attitude_sigma_deg": a.attitude_sigma_deg,
                "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),

@@ -89,6 +89,24 @@ def test_a_cie_or_cloudy_sky_run_changes_the_radiance_and_nothing_else(tmp_path)
     assert bad.returncode == 2 and "invalid choice: 'overcast'" in bad.stderr
 
 
+def test_a_one_way_sea_has_no_counter_sea_a_narrow_spread_and_the_same_scene(tmp_path) -> None:
+    """``--one-way`` draws the scene as without it but for the sea: no counter-running sea,
+    and a spread exponent in ``ONE_WAY_SPREAD`` from a stream of its own."""
+    runs = {}
+    for name, extra in (("both", ()), ("one", ("--one-way",))):
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", *extra,
+                   "--save-clips", str(tmp_path / name), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert json.loads(out.read_text())["one_way"] == (name == "one")
+        runs[name] = json.loads((tmp_path / name / "clip5.json").read_text())
+    sea = ("counter_share", "spread_s", "texture_dn", "noise_dn")
+    assert {k: v for k, v in runs["both"].items() if k not in sea} == {
+        k: v for k, v in runs["one"].items() if k not in sea}
+    assert runs["both"]["counter_share"] > 0 and runs["one"]["counter_share"] == 0.0
+    assert 15.0 <= runs["one"]["spread_s"] <= 40.0 and runs["both"]["spread_s"] <= 10.0
+
+
 def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:
     """``--camera`` draws each effect from a stream of its own: the scene is the one drawn
     without it, the frames differ, the record holds the effect's figures; an unknown effect

@@ -927,8 +927,12 @@ def main() -> int:
         depth = (vals[0], vals[-1])
     if a.tell_depth and depth is None:
         ap.error("--tell-depth needs --depth-m")
-    if a.attitude_sigma_deg is not None and not 0.0 < a.attitude_sigma_deg <= 15.0:
-        ap.error(f"--attitude-sigma-deg must be within (0, 15]; got {a.attitude_sigma_deg:g}")
+    if a.attitude_sigma_deg is not None:
+        from wavealt.altimetry.dispersion.constants import MAX_ATTITUDE_SIGMA_DEG as TOP
+
+        if not 0.0 < a.attitude_sigma_deg <= TOP:
+            ap.error(f"--attitude-sigma-deg must be within (0, {TOP:g}]; "
+                     f"got {a.attitude_sigma_deg:g}")
     set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)

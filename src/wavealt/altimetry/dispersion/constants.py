@@ -1,7 +1,5 @@
 """Choices and tuning constants of the dispersion altimeter, with where the values come from."""
 
-import math
-
 DISPERSIONS = ("gravity", "gravity-capillary")
 DEGLINTS = ("none", "clip", "median")
 TILES = ("quadrants", "full")
@@ -240,10 +238,13 @@ ATTITUDE_PASSES = 3
 #: (:func:`.attitude.unmeasured_tilt_var_log`): fresh tilt tuning seeds 505/606 (0-15
 #: degrees, velocity known, 10 frames) had 7 of 160 windows trusted 14-36 % high, each
 #: with one or two tiles holding the waves, on one side.
+#: It is the default of ``DispersionAltimeter(attitude_sigma_deg=)``, which a user who
+#: knows the attitude better (a gimbal; frames levelled at an inertial unit's attitude)
+#: sets lower.
 ATTITUDE_PRIOR_SD_DEG = 7.5
-#: The same prior as the standard deviation of a tilt's ``(a, b)`` (the sea normal's parts
-#: in the camera's frame, each the sine of the tilt along its axis).
-ATTITUDE_PRIOR_SD = math.sin(math.radians(ATTITUDE_PRIOR_SD_DEG))
+#: The largest ``attitude_sigma_deg``: a tilt spread evenly over the disk of
+#: ``camera.MAX_TILT_DEG`` (30 degrees) has this standard deviation along each axis.
+MAX_ATTITUDE_SIGMA_DEG = 15.0
 #: What the altimeter assumes of the camera's attitude: ``"estimate"`` measures a tilt from
 #: the corner tiles' scales and levels the frames at it; ``"level"`` takes the frames as
 #: those of a camera looking straight down.

@@ -20,6 +20,7 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_PASSES,
     ATTITUDE_PRIOR_SD_DEG,
     BLOCK_PERIOD_PX,
+    MAX_ATTITUDE_SIGMA_DEG,
     TILE_SCATTER_LEVEL,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
@@ -31,11 +32,6 @@ from wavealt.altimetry.dispersion.trust import tile_scatter
 #: and the fit of the frames as given held no shell's peak either.
 UNCONFIRMED_TILT = ("the frames were levelled at the tilt their corner tiles showed, and the "
                     "levelled view's tiles do not confirm it (give the camera's attitude)")
-
-
-#: The largest prior of a camera's tilt, per axis, degrees: a tilt spread evenly over the
-#: disk of ``camera.MAX_TILT_DEG`` (30) has this standard deviation along each axis.
-MAX_ATTITUDE_SIGMA_DEG = 15.0
 
 
 def attitude_prior_deg(attitude: str, sigma_deg: float | None) -> float:

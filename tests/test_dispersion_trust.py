@@ -444,6 +444,8 @@ def test_a_gimbals_prior_weighs_the_tilt_the_tiles_cannot_measure(tmp_path, run_
         assert code == 0, err
         res = json.loads(out)
         assert res["trusted"] and abs(res["altitude_m"] / 4.0 - 1) < 0.05, res
+    code, out, err = run_cli([*base[:-1], "--attitude-sigma-deg", "1"])
+    assert code == 0 and "camera attitude: within 1 deg of nadir a side" in out, err
     code, out, err = run_cli([*base, "--attitude-sigma-deg", "0"])
     assert code != 0 and "--attitude-sigma-deg must be in (0, 15] degrees; got 0.0" in err
 

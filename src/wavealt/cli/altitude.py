@@ -267,6 +267,10 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
                f"(1 sigma), {verdict}")
     water = "" if water_depth_m is None else f", water {water_depth_m:g} m deep"
     click.echo(f"mode: {summary['mode']} ({dispersion} dispersion{water})")
+    if attitude_sigma_deg is not None:
+        around = "the attitude given" if known else "nadir"
+        click.echo(f"camera attitude: within {attitude_sigma_deg:g} deg of {around} a side "
+                   "(1 sigma, --attitude-sigma-deg)")
     click.echo(f"camera velocity over the water: ({vx:+.2f}, {vy:+.2f}) m/s "
                "(image +x columns, +y rows)")
     if summary.get("attitude_deg") is not None:

@@ -106,8 +106,10 @@ Where fewer than three tiles hold the shell, tiles whose peak stands out less (t
 of a tilted camera's sea is faint) help to measure the tilt, and judge nothing.
 Where the tiles that hold the waves lie on one side of the frame, nothing measures a tilt
 toward the other side (nor any tilt where no tile holds them alone), and with the attitude
-unknown a prior tilt's part there joins the uncertainty.  The fit must also read what those
-tiles read: it is made of them.
+unknown a prior tilt's part there joins the uncertainty: the prior is the caller's
+(``attitude_sigma_deg``, a gimbal's error; by default a tilt anywhere the tiles can measure),
+and a levelled view is kept only where its tiles measure the tilt better than the prior.
+The fit must also read what those tiles read: it is made of them.
 
 A camera that turns about its axis carries the water past each corner tile its own way.  The
 difference of two tiles' phase steps on a mode holds the turn and nothing of the waves

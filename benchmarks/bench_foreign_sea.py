@@ -4,7 +4,8 @@
         [--rows blind30,blind15,exact10,prior10] [--workers 1] [--prior-sigma 1.0]
         [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie|clouds]
         [--camera rolling,blur,autoexposure] [--tell-readout] [--depth-m D|LO,HI]
-        [--tell-depth] [--save-clips DIR] [--self-check]
+        [--tell-depth] [--one-way] [--supersample N] [--attitude-sigma-deg S] [--h264-crf C]
+        [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
 
@@ -567,9 +568,24 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
         col, row, *rays = camera_rays(sc)
         points, view = (col, row), tuple(rays)
     if sc.readout_s > 0 or sc.shutter_s > 0:
-        return capture(sc, exposed_radiance(sc, amp, n_frames, points, view), rng)
+        return capture(sc, pixel_means(exposed_radiance(sc, amp, n_frames, points, view)), rng)
     sx, sy = slope_frames(sc, amp, n_frames, points)
-    return capture(sc, radiance(sc, sx, sy, view), rng)
+    return capture(sc, pixel_means(radiance(sc, sx, sy, view)), rng)
+
+
+def pixel_means(lum: np.ndarray) -> np.ndarray:
+    """Radiance ``(T, SIZE, SIZE)`` as the frame's pixels integrate it: the mean of each
+    ``SUPERSAMPLE`` x ``SUPERSAMPLE`` block (itself where ``SUPERSAMPLE`` is 1)."""
+    s = SUPERSAMPLE
+    if s == 1:
+        return lum
+    t, n = lum.shape[0], lum.shape[1] // s
+    return lum.reshape(t, n, s, n, s).mean(axis=(2, 4))
+
+
+def frame_focal_px(sc: Scene) -> float:
+    """The focal length, px, of the frames the altimeter is given (:func:`pixel_means`)."""
+    return sc.focal_px / SUPERSAMPLE
 
 
 #: the altimeter's working scale (``--working-px``; None: its default)
@@ -579,19 +595,27 @@ H264_CRF: int | None = None
 #: the altimeter told that the camera looks straight down within this many degrees a side
 #: (``--attitude-sigma-deg``, ``DispersionAltimeter(attitude_sigma_deg=)``; None: not told)
 ATTITUDE_SIGMA_DEG: float | None = None
+#: each frame's pixel the mean of SUPERSAMPLE x SUPERSAMPLE radiance samples (``--supersample``):
+#: a pixel integrates the radiance over its area, so the optics' non-linear products of the
+#: waves finer than it average out instead of aliasing into the band; the sea is rendered at
+#: ``SIZE`` px, the frames are ``SIZE / SUPERSAMPLE``
+SUPERSAMPLE = 1
 
 
 def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
-             h264_crf: int | None = None, attitude_sigma_deg: float | None = None) -> None:
+             h264_crf: int | None = None, attitude_sigma_deg: float | None = None,
+             supersample: int = 1) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
     grows with them, its margin around the frame in the same proportion), ``fps`` of them a
     second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
     fitted at the altimeter's working scale ``working_px`` (None: its default), coded as
-    H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames); also each worker's
-    initializer."""
-    global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG
+    H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames), each pixel the mean
+    of ``supersample`` x ``supersample`` radiance samples (the sea rendered at
+    ``size * supersample`` px, :data:`SUPERSAMPLE`); also each worker's initializer."""
+    global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE
+    size *= supersample
     SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
-    H264_CRF, ATTITUDE_SIGMA_DEG = h264_crf, attitude_sigma_deg
+    H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE = h264_crf, attitude_sigma_deg, supersample
     _altimeter.cache_clear()
 
 
@@ -618,7 +642,8 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
     sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way)
     altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
     frames, contrast = render_clip(sc)
-    truth = {**asdict(sc), "focal_px": sc.focal_px, "over_water": sc.over_water, **contrast}
+    truth = {**asdict(sc), "focal_px": frame_focal_px(sc), "over_water": sc.over_water,
+             **contrast}
     truth["depth_m"] = None if math.isinf(sc.depth_m) else sc.depth_m  # (JSON has no inf)
     if save_dir:
         np.save(Path(save_dir) / f"clip{seed}.npy", frames)
@@ -637,7 +662,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
             t0 = time.perf_counter()
             try:
                 res = altimeter.estimate(frames[start:start + n], fps=FPS,
-                                            focal_px=sc.focal_px, **velocity[mode],
+                                            focal_px=frame_focal_px(sc), **velocity[mode],
                                             readout_s=sc.readout_s if tell_readout else 0.0)
                 out = {"est": res.altitude_m, "std": res.altitude_std_m,
                        "trusted": bool(res.trusted), "reason": res.reason,
@@ -894,6 +919,9 @@ def main() -> int:
                          "degrees a side, one sigma (a gimbal's prior of the tilt it "
                          "measures; draw tilts to match with --max-tilt-deg 2S); default: not "
                          "told")
+    ap.add_argument("--supersample", type=int, default=1, metavar="N",
+                    help="each pixel the mean of N x N radiance samples (a pixel integrates "
+                         "the light over its area; 1: one sample at its centre, the default)")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
@@ -933,7 +961,10 @@ def main() -> int:
         if not 0.0 < a.attitude_sigma_deg <= TOP:
             ap.error(f"--attitude-sigma-deg must be within (0, {TOP:g}]; "
                      f"got {a.attitude_sigma_deg:g}")
-    set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg)
+    if not 1 <= a.supersample <= 4 or not 64 <= a.size * a.supersample <= 2048:
+        ap.error(f"--supersample must be within 1-4, and --size times it within 64-2048 px; "
+                 f"got {a.supersample} and {a.size}")
+    set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg, a.supersample)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -946,7 +977,8 @@ def main() -> int:
     t0, records = time.perf_counter(), list[dict]()
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
                                                                      a.h264_crf,
-                                                                     a.attitude_sigma_deg))
+                                                                     a.attitude_sigma_deg,
+                                                                     a.supersample))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -959,6 +991,7 @@ def main() -> int:
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
                "tell_depth": a.tell_depth, "one_way": a.one_way, "size": a.size,
+               "supersample": a.supersample,
                "working_px": a.working_px,
                "h264_crf": a.h264_crf, "attitude_sigma_deg": a.attitude_sigma_deg,
                "fps": a.fps,

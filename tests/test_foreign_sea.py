@@ -107,6 +107,27 @@ def test_a_one_way_sea_has_no_counter_sea_a_narrow_spread_and_the_same_scene(tmp
     assert 15.0 <= runs["one"]["spread_s"] <= 40.0 and runs["both"]["spread_s"] <= 10.0
 
 
+def test_supersampled_pixels_average_the_radiance_and_keep_the_frames_scale(tmp_path) -> None:
+    """``--supersample 2`` renders the sea at twice the size and averages each pixel's four
+    samples: the frames and the focal length the altimeter is told are the frame's (256 px),
+    the scene is the same, the frames differ; a bad factor is refused."""
+    clips = {}
+    for n in ("1", "2"):
+        out = tmp_path / f"{n}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", "--supersample", n,
+                   "--save-clips", str(tmp_path / n), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert json.loads(out.read_text())["supersample"] == int(n)
+        truth = json.loads((tmp_path / n / "clip5.json").read_text())
+        clips[n] = (np.load(tmp_path / n / "clip5.npy"), truth)
+    (one, t1), (two, t2) = clips["1"], clips["2"]
+    assert one.shape == two.shape == (30, 256, 256)
+    assert t1["focal_px"] == t2["focal_px"] and t1["altitude_m"] == t2["altitude_m"]
+    assert not np.array_equal(one, two)
+    bad = _run("--clips", "1", "--supersample", "5")
+    assert bad.returncode == 2 and "--supersample must be within 1-4" in bad.stderr
+
+
 def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:
     """``--camera`` draws each effect from a stream of its own: the scene is the one drawn
     without it, the frames differ, the record holds the effect's figures; an unknown effect

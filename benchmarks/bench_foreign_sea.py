@@ -444,13 +444,10 @@ def sky_radiance(sc: Scene, rx: np.ndarray, ry: np.ndarray, rz: np.ndarray) -> n
     return indicatrix(cos_chi) * gradation / (indicatrix(sun[2]) * (1 + a * math.exp(b)))
 
 
-def cloud_cover(sc: Scene, rx: np.ndarray, ry: np.ndarray,
-                rz: np.ndarray) -> tuple[np.ndarray, float]:
-    """The share of each ray ``(rx, ry, rz)`` that a cumulus deck covers (0 to 1), and the
-    clouds' radiance in units of the zenith's, for ``--sky clouds`` (drawn from the clip's
-    stream ``(seed, 6)`` alone: the scene is the one drawn without them).  The deck is fixed
-    to the sky: a camera that moves sees its reflection stay put (the clouds, at infinity,
-    do not move in 1 s), the waves' slopes carrying it back and forth."""
+def cloud_deck(sc: Scene) -> dict[str, Any]:
+    """The cumulus deck of ``--sky clouds`` over clip ``sc``, drawn from the clip's stream
+    ``(seed, 6)`` alone (the scene is the one drawn without it): its cover, edge width and
+    brightness, and its waves' wavenumbers, directions and phases (:data:`CLOUD_WAVES`)."""
     g = np.random.default_rng((sc.seed, 6))
     scale = g.uniform(*CLOUD_SCALE)
     cover, edge, bright = (g.uniform(*CLOUD_COVER), g.uniform(*CLOUD_EDGE),
@@ -458,16 +455,27 @@ def cloud_cover(sc: Scene, rx: np.ndarray, ry: np.ndarray,
     angle = g.uniform(0, 2 * math.pi, CLOUD_WAVES)
     k = 2 * math.pi / (scale * g.uniform(0.7, 1.4, CLOUD_WAVES))
     phase = g.uniform(0, 2 * math.pi, CLOUD_WAVES)
+    return {"cover": cover, "edge": edge, "bright": bright, "k": k, "angle": angle,
+            "phase": phase}
+
+
+def cloud_cover(sc: Scene, rx: np.ndarray, ry: np.ndarray,
+                rz: np.ndarray) -> tuple[np.ndarray, float]:
+    """The share of each ray ``(rx, ry, rz)`` that the cumulus deck (:func:`cloud_deck`)
+    covers (0 to 1), and the clouds' radiance in units of the zenith's.  The deck is fixed
+    to the sky: a camera that moves sees its reflection stay put (the clouds, at infinity,
+    do not move in 1 s), the waves' slopes carrying it back and forth."""
+    deck = cloud_deck(sc)
     tz = np.maximum(rz, 0.05)  # a ray at the horizon sees the deck's far edge
     u, v = rx / tz, ry / tz
     field = np.zeros(np.broadcast(u, v).shape)
-    for kj, aj, pj in zip(k, angle, phase):
+    for kj, aj, pj in zip(deck["k"], deck["angle"], deck["phase"]):
         field += np.cos(kj * (math.cos(aj) * u + math.sin(aj) * v) + pj)
     field *= math.sqrt(2.0 / CLOUD_WAVES)  # unit variance
     # the threshold that the unit normal exceeds with probability ``cover``, smoothed
-    thr = float(NormalDist().inv_cdf(1.0 - cover))
-    x = np.clip((field - thr) / edge + 0.5, 0.0, 1.0)
-    return x * x * (3 - 2 * x), bright
+    thr = float(NormalDist().inv_cdf(1.0 - deck["cover"]))
+    x = np.clip((field - thr) / deck["edge"] + 0.5, 0.0, 1.0)
+    return x * x * (3 - 2 * x), deck["bright"]
 
 
 def radiance(sc: Scene, sx: np.ndarray, sy: np.ndarray,
@@ -850,9 +858,7 @@ def self_check() -> bool:
     # covers the share drawn, to within the sampling of its 24 waves; its radiance lies
     # between the blue sky's and the clouds'; a scene under it is the one drawn without it
     cloudy = replace(base, sky="clouds")
-    g = np.random.default_rng((cloudy.seed, 6))
-    g.uniform(*CLOUD_SCALE)
-    drawn = g.uniform(*CLOUD_COVER)
+    drawn = cloud_deck(cloudy)["cover"]
     u = np.linspace(-30.0, 30.0, 600)
     uu, vv = np.meshgrid(u, u)
     rays = np.stack([uu, vv, np.ones_like(uu)]) / np.sqrt(1 + uu**2 + vv**2)

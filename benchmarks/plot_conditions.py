@@ -49,19 +49,25 @@ def parse_runs(specs: list[str]) -> dict[str, list[dict[str, Any]]]:
     return runs
 
 
+def window_errors(recs: list[dict[str, Any]], row: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(|relative error|, trusted)`` of every window of ``row`` in ``recs`` that has an
+    estimate."""
+    sel = [r for r in recs if r["row"] == row and r.get("est") is not None]
+    err = np.array([abs(r["est"] / r["altitude_m"] - 1) for r in sel], dtype=np.float64)
+    return err, np.array([bool(r["trusted"]) for r in sel], dtype=bool)
+
+
 def summary(runs: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, dict[str, Any]]]:
     """Per label and row: windows, trusted share, MAE of all and of trusted windows, and the
     trusted windows more than 10 % off."""
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for label, recs in runs.items():
         for row in dict.fromkeys(r["row"] for r in recs):
-            sel = [r for r in recs if r["row"] == row and r.get("est") is not None]
-            err = np.array([abs(r["est"] / r["altitude_m"] - 1) for r in sel])
-            trusted = np.array([bool(r["trusted"]) for r in sel])
+            err, trusted = window_errors(recs, row)
             out.setdefault(label, {})[row] = {
-                "windows": len(sel),
-                "trusted_share": float(trusted.mean()) if sel else None,
-                "mae": float(err.mean()) if sel else None,
+                "windows": int(err.size),
+                "trusted_share": float(trusted.mean()) if err.size else None,
+                "mae": float(err.mean()) if err.size else None,
                 "trusted_mae": float(err[trusted].mean()) if trusted.any() else None,
                 "trusted_over_10pct": int(np.sum(err[trusted] > 0.1)),
             }
@@ -96,9 +102,8 @@ def plot(runs: dict[str, list[dict[str, Any]]], out: Path, rows: list[str]) -> N
         ax.set_xticks(x, labels, rotation=30, ha="right", fontsize=8)
         ax = axes[1, j]
         for i, lb in enumerate(labels):
-            sel = [r for r in runs[lb] if r["row"] == row and r.get("est") is not None]
-            err = np.array([max(abs(r["est"] / r["altitude_m"] - 1), 1e-4) for r in sel])
-            trusted = np.array([bool(r["trusted"]) for r in sel], dtype=bool)
+            err, trusted = window_errors(runs[lb], row)
+            err = np.maximum(err, 1e-4)  # on the log axis
             jit = i + rng.uniform(-0.3, 0.3, err.size)
             ax.scatter(jit[~trusted], err[~trusted], s=4, color="0.75", label=None)
             ax.scatter(jit[trusted], err[trusted], s=5, color="tab:blue", label=None)

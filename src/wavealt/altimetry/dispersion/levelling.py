@@ -57,8 +57,7 @@ class _Level:
     def _attitude_prior_sd(self) -> float:
         """The prior of the tilt (``attitude_sigma_deg``) as the standard deviation of each
         of the sea normal's parts ``(a, b)`` (the sine of a tilt along each axis)."""
-        return math.sin(math.radians(getattr(self, "attitude_sigma_deg",
-                                             ATTITUDE_PRIOR_SD_DEG)))
+        return math.sin(math.radians(self.attitude_sigma_deg))
 
     def _level(self, arr: np.ndarray, fps: float, focal_px: float,
                prior: tuple[float, float, float] | None, res: DispersionResult,

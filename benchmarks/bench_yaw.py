@@ -2,7 +2,7 @@
 
     python benchmarks/bench_yaw.py [--seeds 23,31] [--sequences 40] [--rates 10,30]
         [--frames 10] [--mode exact|blind] [--sea realistic|second] [--workers 1]
-        [--out FILE.json] [--plot FILE.png]
+        [--max-tilt-deg T] [--out FILE.json] [--plot FILE.png]
 
 Each sequence of the realistic renderer (256 px, altitude 1-15 m, wind 2-12 m/s, drift 0-1
 m/s, clean frames) is the sea in the axes of the clip's middle frame; a camera whose nose
@@ -16,7 +16,9 @@ Per rate and case: relative MAE, median, trusted share, trusted windows more tha
 window's error, rate given or not.  ``--sea second`` takes the sea of
 ``bench_foreign_sea.py``'s independent generator instead (its clip ``seed + index``, 256
 px, its own frame rate and focal length, the camera's velocity over the water given in
-exact mode; at most its 30 frames).  Exit code 0: a report, not a gate.
+exact mode; at most its 30 frames); ``--max-tilt-deg T`` tilts its camera from nadir by up
+to T degrees (the generator's own tilt) before the camera turns about its optical axis.
+Exit code 0: a report, not a gate.
 """
 
 from __future__ import annotations
@@ -79,18 +81,21 @@ def _realistic_sea(seed: int, index: int, frames: int) -> tuple[np.ndarray, dict
         "velocity_mps": tuple(float(v) for v in sc.camera_velocity_mps)}
 
 
-def _second_sea(seed: int, index: int, frames: int) -> tuple[np.ndarray, dict[str, Any]]:
+def _second_sea(seed: int, index: int, frames: int, max_tilt_deg: float = 0.0
+                ) -> tuple[np.ndarray, dict[str, Any]]:
     """The independent generator's clip ``seed + index`` (``bench_foreign_sea.py``), its
-    first ``frames`` frames scaled to [0, 1], and its truth (as :func:`_realistic_sea`)."""
+    first ``frames`` frames scaled to [0, 1], and its truth (as :func:`_realistic_sea`,
+    and ``tilt_deg``); ``max_tilt_deg``: the camera tilted from nadir by up to that, as
+    ``bench_foreign_sea.py --max-tilt-deg`` tilts it."""
     gen = _generator()
-    sc = gen.draw_scene(seed + index)
+    sc = gen.draw_scene(seed + index, max_tilt_deg=max_tilt_deg)
     clip, _ = gen.render_clip(sc)
     if frames > clip.shape[0]:
         msg = f"--frames must be at most {clip.shape[0]} with --sea second; got {frames}"
         raise ValueError(msg)
     return clip[:frames].astype(np.float32) / 255.0, {
         "altitude_m": sc.altitude_m, "fps": gen.FPS, "focal_px": sc.focal_px,
-        "velocity_mps": tuple(float(v) for v in sc.over_water)}
+        "velocity_mps": tuple(float(v) for v in sc.over_water), "tilt_deg": sc.tilt_deg}
 
 
 def _generator() -> Any:
@@ -113,14 +118,17 @@ SEAS = {"realistic": _realistic_sea, "second": _second_sea}
 
 def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
                  mode: str, sea_name: str = "realistic",
-                 working_px: int | None = None) -> list[dict[str, Any]]:
+                 working_px: int | None = None, max_tilt_deg: float = 0.0
+                 ) -> list[dict[str, Any]]:
     """The windows of sequence ``task = (seed, index)`` at each rate, told and untold;
     ``working_px``: the altimeter's working scale (None: its default; 88 bins the 176-px
-    camera by 2, as frames twice the default scale are)."""
+    camera by 2, as frames twice the default scale are); ``max_tilt_deg``: the second
+    sea's camera tilted (:func:`_second_sea`), and turning about its optical axis."""
     from wavealt.altimetry.dispersion import DispersionAltimeter
 
     seed, index = task
-    sea, truth = SEAS[sea_name](seed, index, frames)
+    tilt = {"max_tilt_deg": max_tilt_deg} if max_tilt_deg > 0.0 else {}
+    sea, truth = SEAS[sea_name](seed, index, frames, **tilt)
     kw: dict[str, Any] = {"fps": truth["fps"], "focal_px": truth["focal_px"]}
     if mode == "exact":
         kw["velocity_mps"] = truth["velocity_mps"]
@@ -138,7 +146,7 @@ def run_sequence(task: tuple[int, int], rates: tuple[float, ...], frames: int,
                         "altitude_m": truth["altitude_m"], "estimate_m": res.altitude_m,
                         "std_m": res.altitude_std_m, "trusted": bool(res.trusted),
                         "reason": res.reason, "yaw_rate_dps": res.yaw_rate_dps,
-                        "signal": res.signal,
+                        "signal": res.signal, "tilt_deg": truth.get("tilt_deg", 0.0),
                         "ms": 1e3 * (time.perf_counter() - t0)})
     return out
 
@@ -278,8 +286,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--working-px", type=int, default=None,
                     help=f"the altimeter's working scale (default its own); {CAMERA_PX // 2} "
                          f"bins the {CAMERA_PX}-px camera by 2, as larger frames are")
+    ap.add_argument("--max-tilt-deg", type=float, default=0.0,
+                    help="with --sea second: the camera tilted from nadir by up to this "
+                         "(0-30), turning about its optical axis")
     a = ap.parse_args(argv)
     a.rates = check_sea_args(ap, a, a.rates, "rates")
+    if not 0.0 <= a.max_tilt_deg <= 30.0:
+        ap.error(f"--max-tilt-deg must be within 0-30; got {a.max_tilt_deg:g}")
+    if a.max_tilt_deg > 0.0 and a.sea != "second":
+        ap.error("--max-tilt-deg needs --sea second (the realistic renderer looks straight "
+                 "down)")
     if a.working_px is not None and a.working_px < 0:
         ap.error(f"--working-px must be >= 0; got {a.working_px}")
     if any(not (math.isfinite(r) and 0 < abs(r) <= 180) for r in a.rates):
@@ -290,12 +306,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     job = partial(run_sequence, rates=a.rates, frames=a.frames, mode=a.mode, sea_name=a.sea,
-                  working_px=a.working_px)
+                  working_px=a.working_px, max_tilt_deg=a.max_tilt_deg)
     rows, seconds = run_rows(a, job)
     summary = {"benchmark": "yaw", "command": " ".join(["python", *sys.argv]),
                "seeds": list(a.seeds), "sequences": a.sequences, "rates_dps": list(a.rates),
                "frames": a.frames, "mode": a.mode, "sea": a.sea, "camera_px": CAMERA_PX,
-               "working_px": a.working_px,
+               "working_px": a.working_px, "max_tilt_deg": a.max_tilt_deg,
                "by_rate": summarise(rows), "seconds": seconds}
     report(a, summary, rows)
     if a.plot is not None:

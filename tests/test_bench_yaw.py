@@ -48,6 +48,8 @@ def test_the_yawing_view_turned_back_is_the_still_view() -> None:
     (("--sea", "second", "--frames", "40"), "--frames must be at most 30 with --sea second"),
     (("--sea", "paper"), "invalid choice: 'paper'"),
     (("--working-px", "-1"), "--working-px must be >= 0; got -1"),
+    (("--sea", "second", "--max-tilt-deg", "40"), "--max-tilt-deg must be within 0-30; got 40"),
+    (("--max-tilt-deg", "5"), "--max-tilt-deg needs --sea second"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = subprocess.run([sys.executable, str(BENCH), *args], capture_output=True, text=True,
@@ -81,6 +83,25 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
     binned = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second", working_px=88)
     assert [r["rate_dps"] for r in binned] == [r["rate_dps"] for r in rows]
     assert all("+binned2" in r["signal"] for r in binned)
+
+
+def test_the_second_seas_camera_is_tilted_as_the_generator_tilts_it() -> None:
+    """``--max-tilt-deg``: the clip is the generator's own with its camera tilted (the
+    scene drawn with that radius, the same draw otherwise), and the rows carry the tilt."""
+    spec = importlib.util.spec_from_file_location("bench_yaw", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    gen = mod._generator()
+    sea, truth = mod._second_sea(3000, 2, 10, max_tilt_deg=8.0)
+    sc = gen.draw_scene(3002, max_tilt_deg=8.0)
+    assert 0.0 < sc.tilt_deg <= 8.0 and truth["tilt_deg"] == sc.tilt_deg
+    assert truth["altitude_m"] == gen.draw_scene(3002).altitude_m
+    clip, _ = gen.render_clip(sc)
+    np.testing.assert_array_equal(sea * 255.0, clip[:10].astype(np.float32))
+    level, _ = mod._second_sea(3000, 2, 10)
+    assert not np.array_equal(level, sea)
+    rows = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second", max_tilt_deg=8.0)
+    assert [r["tilt_deg"] for r in rows] == [sc.tilt_deg] * 3
 
 
 def test_plot_writes_a_png_of_a_run(tmp_path) -> None:

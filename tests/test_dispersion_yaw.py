@@ -262,3 +262,34 @@ def test_a_refuted_turn_leaves_the_still_fit_untrusted_while_the_tiles_show_it(
     assert not res.trusted and "turned +90.0 deg/s" in res.reason, res.reason
     assert res.altitude_m == pytest.approx(still.altitude_m, rel=1e-9)
     assert_honest(res, 4.0)
+
+
+def test_a_turn_whose_frames_turned_back_need_a_tilt_is_refuted(sea, monkeypatch) -> None:
+    """A still, level camera's tiles showing a turn it did not make (3 deg/s, injected into
+    the tiles' measurement of the frames as they are): turned back at that rate, the tiles
+    read scales that change across the frame, and the frames are levelled at a tilt the
+    camera does not have.  The frames as they are pass every test but the turn's without a
+    tilt, so the turn is refuted with the tilt it brought: the altitude is the still
+    camera's, and not trusted while the tiles show the turn."""
+    frames, kw = sea
+    clip = _yawing(frames, 0.0, kw["fps"], 176)
+    est = DispersionAltimeter()
+    still = est.estimate(clip, **kw)
+    assert still.trusted and still.attitude_deg is None
+    # the premise: turned back at 3 deg/s, the frames are levelled
+    assert est.estimate(clip, yaw_rate_dps=3.0, **kw).attitude_deg is not None
+    shown: list[np.ndarray] = []
+
+    def measured(p, signal, fps, with_sd=False):
+        shown.append(shown[0] if shown else signal)
+        if signal is not shown[0]:  # the frames turned back show no turn
+            return None
+        return (3.0, 0.6) if with_sd else 3.0
+
+    monkeypatch.setattr(est, "_measured_turn", measured)
+    res = est.estimate(clip, **kw)
+    assert "+turn-refuted" in res.signal and res.attitude_deg is None, res.signal
+    assert res.yaw_rate_dps == 0.0 and res.altitude_m == pytest.approx(still.altitude_m,
+                                                                       rel=1e-9)
+    assert not res.trusted and "turned +3.0 deg/s" in res.reason, res.reason
+    assert_honest(res, 4.0)

@@ -39,7 +39,7 @@ from wavealt.altimetry.dispersion.spectra import ROLLING, _Spectra, set_rolling
 from wavealt.altimetry.dispersion.start import _Start
 from wavealt.altimetry.dispersion.tiles import _Tiles
 from wavealt.altimetry.dispersion.trust import _Trust
-from wavealt.altimetry.dispersion.turn import _Turn
+from wavealt.altimetry.dispersion.turn import _Turn, turn_shown
 from wavealt.altimetry.dispersion.waves import omega, omega_and_dlog_k
 from wavealt.camera import MAX_YAW_RATE_DPS, unturn_yaw
 
@@ -329,8 +329,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             # a turn the passes left (or that a levelled view shows): not modelled
             turn = self._measured_turn(p, fit_signal, fps)
             if turn is not None:
-                res.reason = (f"the camera turned {turn:+.1f} deg/s about its axis over the "
-                              f"clip (give its yaw rate)")
+                res.reason = turn_shown(turn)
         shake = p.get("shake") if p is not None else None
         res.shake_px = (0.0 if shake is None  # in the frames' own px, not the binned ones
                         else binning * float(np.sqrt(np.mean(shake**2))))

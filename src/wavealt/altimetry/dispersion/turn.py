@@ -18,6 +18,16 @@ from wavealt.altimetry.dispersion.spectra import ROLLING
 from wavealt.camera import MAX_YAW_RATE_DPS
 
 
+#: How the reason of a fit whose corner tiles show a turn begins (:func:`turn_shown`).
+TURN_SHOWN = "the camera turned"
+
+
+def turn_shown(rate_dps: float) -> str:
+    """The reason a fit is not trusted whose corner tiles show the camera turning at
+    ``rate_dps`` about its axis (a turn the yaw passes left, or that a levelled view shows)."""
+    return f"{TURN_SHOWN} {rate_dps:+.1f} deg/s about its axis over the clip (give its yaw rate)"
+
+
 class _Turn:
     """The yaw passes of :class:`DispersionAltimeter`, and a steadied fit's shake error
     (uses ``_estimate``, ``_estimate_at``, ``_holds_shell``, ``_rate_uncertain``)."""
@@ -40,6 +50,16 @@ class _Turn:
         still camera's frames back at such a rate smears the shell they hold.  The fit at
         ``yaw`` is then finished and kept.  It is not trusted while its tiles show the turn
         (its finish judges that), so the test decides the altitude read, not the trust.
+        A turn is refuted too where the frames turned back hold the shell only levelled and
+        the frames as they are hold it without a tilt.  A rate off by ``d`` moves each
+        corner tile's image by ``d`` times its lever, opposite at opposite corners, which
+        the tiles, fitted at one velocity, read as scales that change linearly across the
+        frame: a tilt's pattern.  A real turn shows that pattern in the frames as they are
+        and loses it turned back; a turn measured where there is none puts it into the
+        frames turned back, and the levelling reads it as a tilt (a still camera, turned
+        back at 1.8 deg/s, levelled at 13 degrees, read -8 % at sigma 2.4 %;
+        ``docs/dispersion.md``, forty-fourth session).  Neither turn nor tilt is then
+        needed to explain the frames as they are.
         """
         saved = ROLLING.get()  # a pass's rolling-shutter fit sets its own
         res = self._estimate(**again, yaw_rate_dps=yaw + turned[0], yaw_pass=yaw_pass + 1)
@@ -48,11 +68,19 @@ class _Turn:
         if yaw_pass == 0 and res.trusted and abs(off) <= MAX_YAW_RATE_DPS:
             res = self._rate_uncertain(res, self._estimate(**again, yaw_rate_dps=off,
                                                            yaw_pass=YAW_PASSES))
-        if self._holds_shell(res):
+        if self._holds_shell(res) and res.attitude_deg is None:
             return res
         ROLLING.set(saved)
         kept = still()
-        if self._holds_shell(kept) and kept.significance > res.significance:
+        if not self._holds_shell(kept):
+            return res
+        if self._holds_shell(res):
+            # levelled: the turn and the tilt it left are one pattern (see above), refuted
+            # where the frames as they are pass every test but the turn's, unlevelled
+            refuted = kept.attitude_deg is None and (kept.reason or "").startswith(TURN_SHOWN)
+        else:
+            refuted = kept.significance > res.significance
+        if refuted:
             kept.signal += "+turn-refuted"
             return kept
         return res

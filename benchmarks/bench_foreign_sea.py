@@ -5,6 +5,7 @@
         [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie|clouds]
         [--camera rolling,blur,autoexposure] [--tell-readout] [--depth-m D|LO,HI]
         [--tell-depth] [--one-way] [--supersample N] [--attitude-sigma-deg S] [--h264-crf C]
+        [--lens-k1 K [--tell-calibration]]
         [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
@@ -169,6 +170,7 @@ class Scene:
     ae_rate: float = 0.0  # automatic exposure: share of the log gain error corrected a frame
     ae_jitter: float = 0.0  # ... and the sd of its log gain's jitter a frame
     depth_m: float = math.inf  # the water's depth (inf: deep water)
+    lens_k1: float = 0.0  # the lens's radial distortion (OpenCV's k1; 0: a pinhole)
 
     @property
     def focal_px(self) -> float:
@@ -232,13 +234,39 @@ def draw_scene(seed: int, max_current: float = 1.0, max_tilt_deg: float = 0.0,
 
 
 def pixel_slopes(sc: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """Each pixel's ray slopes along x (columns) and y (rows) in its camera's axes."""
+    """Each pixel's ray slopes along x (columns) and y (rows) in its camera's axes: a
+    pinhole's, or through a lens with OpenCV's radial distortion ``sc.lens_k1`` (the pixel
+    at ``r_d`` from the centre, over the focal length, sees the ray of slope ``r`` with
+    ``r_d = r (1 + k1 r^2)``: barrel for k1 < 0), solved by Newton's method."""
     c = (np.arange(SIZE) - (SIZE - 1) / 2) / sc.focal_px
-    return np.meshgrid(c, c)
+    px, py = np.meshgrid(c, c)
+    k1 = sc.lens_k1
+    if k1 == 0.0:
+        return px, py
+    rd = np.hypot(px, py)
+    if k1 < 0.0 and float(rd.max()) >= 2.0 / (3.0 * math.sqrt(-3.0 * k1)):
+        msg = f"a lens of k1 = {k1:g} folds inside a {sc.hfov_deg:.0f}-degree frame"
+        raise ValueError(msg)
+    r = rd.copy()
+    for _ in range(50):
+        r -= (r * (1.0 + k1 * r * r) - rd) / (1.0 + 3.0 * k1 * r * r)
+    scale = np.divide(r, rd, out=np.ones_like(r), where=rd > 0)
+    return px * scale, py * scale
+
+
+def lens_calibration(sc: Scene) -> Any:
+    """The calibration of the frames of ``sc`` (:class:`wavealt.camera.Calibration`: the
+    pinhole at the frame's centre and the lens's k1), as a user would give it."""
+    from wavealt.camera import Calibration
+
+    f, c = frame_focal_px(sc), (SIZE // SUPERSAMPLE - 1) / 2
+    return Calibration(np.array([[f, 0.0, c], [0.0, f, c], [0.0, 0.0, 1.0]]),
+                       np.array([sc.lens_k1, 0.0, 0.0, 0.0, 0.0]))
 
 
 def camera_rays(sc: Scene) -> tuple[np.ndarray, ...]:
-    """Per pixel of a pinhole whose optical axis is tilted ``sc.tilt_deg`` from the vertical
+    """Per pixel of a camera (:func:`pixel_slopes`: a pinhole, or a lens that distorts)
+    whose optical axis is tilted ``sc.tilt_deg`` from the vertical
     toward image direction ``sc.tilt_toward`` (a rotation about the image-plane axis
     perpendicular to it, Rodrigues): the point its ray meets the sea, grid coordinates
     (column, row; the level camera's centre pixel at the grid's centre), and the unit
@@ -572,7 +600,7 @@ def render_clip(sc: Scene, n_frames: int = FRAMES) -> tuple[np.ndarray, dict[str
     rng = np.random.default_rng((sc.seed, 1))
     amp = random_amplitudes(sc, rng)
     points, view = None, None
-    if sc.tilt_deg != 0.0:
+    if sc.tilt_deg != 0.0 or sc.lens_k1 != 0.0:
         col, row, *rays = camera_rays(sc)
         points, view = (col, row), tuple(rays)
     if sc.readout_s > 0 or sc.shutter_s > 0:
@@ -608,19 +636,34 @@ ATTITUDE_SIGMA_DEG: float | None = None
 #: waves finer than it average out instead of aliasing into the band; the sea is rendered at
 #: ``SIZE`` px, the frames are ``SIZE / SUPERSAMPLE``
 SUPERSAMPLE = 1
+#: the camera's lens distorts radially, OpenCV's k1 (``--lens-k1``; 0: a pinhole), and the
+#: altimeter is given the frames as they are, or, with ``--tell-calibration``, turned to a
+#: pinhole's view by the calibration (:class:`wavealt.camera.NadirView`, as ``wavealt
+#: altitude --calibration`` turns them)
+LENS_K1 = 0.0
+TELL_CALIBRATION = False
+#: the most radial distortion ``--lens-k1`` takes: a wide drone lens left uncorrected (the
+#: model's radius ``r (1 + k1 r^2)`` folds at ``2 / (3 sqrt(-3 k1))`` of the focal length,
+#: 1.11 at -0.12, beyond the corner of a 70-degree frame at 0.99)
+MAX_LENS_K1 = 0.12
 
 
 def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
              h264_crf: int | None = None, attitude_sigma_deg: float | None = None,
-             supersample: int = 1) -> None:
+             supersample: int = 1, lens_k1: float = 0.0,
+             tell_calibration: bool = False) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
     grows with them, its margin around the frame in the same proportion), ``fps`` of them a
     second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
     fitted at the altimeter's working scale ``working_px`` (None: its default), coded as
     H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames), each pixel the mean
     of ``supersample`` x ``supersample`` radiance samples (the sea rendered at
-    ``size * supersample`` px, :data:`SUPERSAMPLE`); also each worker's initializer."""
-    global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE
+    ``size * supersample`` px, :data:`SUPERSAMPLE`), through a lens of radial distortion
+    ``lens_k1``, told (``tell_calibration``) or not (:data:`LENS_K1`); also each worker's
+    initializer."""
+    global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE, LENS_K1
+    global TELL_CALIBRATION
+    LENS_K1, TELL_CALIBRATION = float(lens_k1), bool(tell_calibration)
     size *= supersample
     SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
     H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE = h264_crf, attitude_sigma_deg, supersample
@@ -647,7 +690,8 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
     """One record per window of every row of clip ``seed``; ``tell_readout``: the altimeter
     is given the rolling shutter's readout time; ``tell_depth``: the water's depth (drawn
     from ``depth_m``, :func:`draw_scene`); ``one_way``: a sea running one way."""
-    sc = draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way)
+    sc = replace(draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way),
+                 lens_k1=LENS_K1)
     altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": frame_focal_px(sc), "over_water": sc.over_water,
@@ -656,10 +700,16 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
     if save_dir:
         np.save(Path(save_dir) / f"clip{seed}.npy", frames)
         (Path(save_dir) / f"clip{seed}.json").write_text(json.dumps(truth, indent=1))
+    focal = frame_focal_px(sc)
+    if TELL_CALIBRATION and sc.lens_k1 != 0.0:  # the frames a pinhole's view, as given
+        from wavealt.camera import NadirView
+
+        view = NadirView(lens_calibration(sc), frames.shape[2], frames.shape[1])
+        frames, focal = view(frames), view.focal_px
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
-                                  "ae_rate", "ae_jitter", "depth_m")}
+                                  "ae_rate", "ae_jitter", "depth_m", "lens_k1")}
     base["saturated_share"] = float(np.mean(frames == 255))
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
                 "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
@@ -670,7 +720,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
             t0 = time.perf_counter()
             try:
                 res = altimeter.estimate(frames[start:start + n], fps=FPS,
-                                            focal_px=frame_focal_px(sc), **velocity[mode],
+                                            focal_px=focal, **velocity[mode],
                                             readout_s=sc.readout_s if tell_readout else 0.0)
                 out = {"est": res.altitude_m, "std": res.altitude_std_m,
                        "trusted": bool(res.trusted), "reason": res.reason,
@@ -870,6 +920,24 @@ def self_check() -> bool:
     report("cumulus deck", abs(float(np.mean(cover > 0.5)) - drawn) < 0.05 and between
            and same, f"covers {float(np.mean(cover > 0.5)):.3f} of the sky, drawn "
            f"{drawn:.3f}; clouds {bright:.2f} x the zenith")
+    # (9) a lens that distorts: OpenCV's own forward model (``cv2.projectPoints``) takes
+    # each pixel's ray back to the pixel, for barrel and pincushion; a pinhole's rays are
+    # the pixels' slopes
+    import cv2
+
+    lens_err = 0.0
+    for k1 in (-MAX_LENS_K1, 0.05):
+        lens = replace(base, lens_k1=k1)
+        sx, sy = pixel_slopes(lens)
+        rays = np.stack([sx.ravel(), sy.ravel(), np.ones(sx.size)], 1)
+        calib = lens_calibration(lens)
+        px = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), calib.camera_matrix,
+                               calib.dist_coeffs)[0].reshape(SIZE, SIZE, 2)
+        cols, rows = np.meshgrid(np.arange(SIZE), np.arange(SIZE))
+        lens_err = max(lens_err, float(np.max(np.hypot(px[..., 0] - cols, px[..., 1] - rows))))
+    pin = pixel_slopes(base)[0][0] * base.focal_px + (SIZE - 1) / 2
+    report("lens distortion", lens_err < 1e-6 and float(np.max(np.abs(pin - np.arange(SIZE))))
+           < 1e-9, f"pixel rays projected back by OpenCV: {lens_err:.1e} px at most")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")
@@ -925,6 +993,12 @@ def main() -> int:
                          "degrees a side, one sigma (a gimbal's prior of the tilt it "
                          "measures; draw tilts to match with --max-tilt-deg 2S); default: not "
                          "told")
+    ap.add_argument("--lens-k1", type=float, default=0.0, metavar="K",
+                    help="the camera's lens distorts radially by OpenCV's k1 = K (-0.12 to "
+                         "0.12; negative: barrel), not told to the altimeter")
+    ap.add_argument("--tell-calibration", action="store_true",
+                    help="with --lens-k1: the frames turned to a pinhole's view by the "
+                         "lens's calibration first, as --calibration does")
     ap.add_argument("--supersample", type=int, default=1, metavar="N",
                     help="each pixel the mean of N x N radiance samples (a pixel integrates "
                          "the light over its area; 1: one sample at its centre, the default)")
@@ -970,7 +1044,12 @@ def main() -> int:
     if not 1 <= a.supersample <= 4 or not 64 <= a.size * a.supersample <= 2048:
         ap.error(f"--supersample must be within 1-4, and --size times it within 64-2048 px; "
                  f"got {a.supersample} and {a.size}")
-    set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg, a.supersample)
+    if not -MAX_LENS_K1 <= a.lens_k1 <= MAX_LENS_K1:
+        ap.error(f"--lens-k1 must be within +-{MAX_LENS_K1:g}; got {a.lens_k1:g}")
+    if a.tell_calibration and a.lens_k1 == 0.0:
+        ap.error("--tell-calibration needs --lens-k1")
+    set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg, a.supersample,
+             a.lens_k1, a.tell_calibration)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -984,7 +1063,9 @@ def main() -> int:
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
                                                                      a.h264_crf,
                                                                      a.attitude_sigma_deg,
-                                                                     a.supersample))
+                                                                     a.supersample,
+                                                                     a.lens_k1,
+                                                                     a.tell_calibration))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -997,7 +1078,8 @@ def main() -> int:
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
                "tell_depth": a.tell_depth, "one_way": a.one_way, "size": a.size,
-               "supersample": a.supersample,
+               "supersample": a.supersample, "lens_k1": a.lens_k1,
+               "tell_calibration": a.tell_calibration,
                "working_px": a.working_px,
                "h264_crf": a.h264_crf, "attitude_sigma_deg": a.attitude_sigma_deg,
                "fps": a.fps,

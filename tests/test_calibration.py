@@ -12,6 +12,7 @@ import pytest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
 from wavealt.altimetry.dispersion.attitude import tile_centres
+from wavealt.altimetry.dispersion.constants import WEAK_TILE_SD_LOG
 from wavealt.altimetry.dispersion.levelling import UNCONFIRMED_TILT
 from wavealt.camera import (
     Calibration,
@@ -249,7 +250,7 @@ def test_faint_tiles_help_to_measure_a_tilt_only_where_too_few_tiles_hold_the_sh
     res, tiles = est._level(frames, 30.0, focal, None, given, fits, {}, signal=frames,
                             weak=near)[:2]
     if held == 2:
-        assert res is levelled and res.signal.endswith("+levelled"), res
+        assert res is levelled and res.signal.endswith("+levelled+faint"), res
         assert abs(res.attitude_deg[1] - 12.0) < 1.0 and abs(res.attitude_deg[0]) < 1.0
         assert tiles is seen and res.reason is None
     else:
@@ -257,6 +258,52 @@ def test_faint_tiles_help_to_measure_a_tilt_only_where_too_few_tiles_hold_the_sh
     # without the weak tiles the two far ones cannot measure the pitch
     again = _fit_of(6.0, 0.8)
     assert est._level(frames, 30.0, focal, None, again, far, {}, signal=frames)[0] is again
+
+
+def test_a_tilt_that_faint_tiles_measure_carries_their_doubt(monkeypatch) -> None:
+    """A camera pitched 12 degrees whose two near tiles are faint (weak), in the view as
+    given and in the levelled one: they measure the pitch with the two far tiles, and the
+    levelled fit's uncertainty holds what they leave of it with a weak tile's doubt
+    (``WEAK_TILE_SD_LOG``).  The two far tiles, on one side, read the scale at the centre
+    only through the slope the near ones give it: in the linear model, the centre's log
+    altitude has the variance of the mean of the two sides' means, against the level
+    model's weighted mean.  The levelling and the altitude read are those of tiles taken
+    at their own sigma; only the uncertainty differs."""
+    from wavealt.altimetry.dispersion import levelling
+
+    focal, est = 268.5, DispersionAltimeter()
+    b = math.sin(math.radians(12.0))
+    centres = tile_centres((256, 256), (100, 100))
+    sd = 0.02
+    pitched = [(x, y, math.log(6.0) - 1.5 * math.log(b * y / focal + math.sqrt(1 - b * b)),
+                sd) for x, y in centres]
+    level = [(x, y, math.log(5.0), sd) for x, y in centres]
+    frames = np.zeros((3, 256, 256), np.float32)
+    monkeypatch.setattr(est, "_fit", lambda *a, **k: (_fit_of(5.0, 0.8), frames, {}))
+    monkeypatch.setattr(est, "_corner_fits", lambda *a, **k: (
+        [t for t in level if t[1] < 0], [t for t in level if t[1] > 0]))
+
+    def levelled() -> DispersionResult:
+        return est._level(frames, 30.0, focal, None, _fit_of(6.0, 0.8),
+                          [t for t in pitched if t[1] < 0], {}, signal=frames,
+                          weak=[t for t in pitched if t[1] > 0])[0]
+    doubted = levelled()
+    monkeypatch.setattr(levelling, "WEAK_TILE_SD_LOG", 0.0)
+    plain = levelled()
+    for res in (doubted, plain):
+        assert res.signal.endswith("+levelled+faint") and res.reason is None, res
+    assert doubted.altitude_m == plain.altitude_m
+    assert doubted.attitude_deg == plain.attitude_deg
+    assert abs(plain.attitude_deg[1] - 12.0) < 1.0
+
+    def var(res: DispersionResult) -> float:
+        return (res.altitude_std_m / res.altitude_m) ** 2
+    v_far = sd * sd / 2.0
+    v_near = (sd * sd + WEAK_TILE_SD_LOG**2) / 2.0
+    centre = (v_far + v_near) / 4.0
+    level_var = 1.0 / (1.0 / v_far + 1.0 / v_near)
+    assert var(doubted) - var(plain) >= 0.9 * (centre - level_var), (doubted, plain)
+    assert est._distrust(doubted) is not None and est._distrust(plain) is None
 
 
 @pytest.mark.parametrize("waves", [True, False])

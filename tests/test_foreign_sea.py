@@ -25,12 +25,13 @@ def test_the_generators_physics_checks_pass() -> None:
     rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
     the CIE clear sky's luminance against the standard's formula, the camera effects
     (phases taken whole or stepped, a rolling shutter's row against a direct render,
-    automatic exposure's gains), and the cumulus deck's cover, at 30 and 60 frames/s."""
+    automatic exposure's gains), the cumulus deck's cover, and a distorting lens's pixel
+    rays against OpenCV's own projection, at 30 and 60 frames/s."""
     for fps in ("30", "60"):  # at another frame rate too (--fps)
         res = _run("--self-check", "--fps", fps)
         assert res.returncode == 0, res.stdout + res.stderr[-2000:]
         lines = res.stdout.splitlines()
-        assert sum(line.startswith("PASS") for line in lines) == 8
+        assert sum(line.startswith("PASS") for line in lines) == 9
         assert not any(line.startswith("FAIL") for line in lines)
     bad = _run("--self-check", "--fps", "2")
     assert bad.returncode == 2 and "--fps must be within 5-240; got 2" in bad.stderr
@@ -126,6 +127,40 @@ def test_supersampled_pixels_average_the_radiance_and_keep_the_frames_scale(tmp_
     assert not np.array_equal(one, two)
     bad = _run("--clips", "1", "--supersample", "5")
     assert bad.returncode == 2 and "--supersample must be within 1-4" in bad.stderr
+
+
+def test_a_lens_that_distorts_changes_the_frames_and_not_the_scene(tmp_path) -> None:
+    """``--lens-k1``: the scene is drawn as without it, seen through the lens (the frames
+    differ, the altimeter is told the same focal length, the centre's); with
+    ``--tell-calibration`` the windows are read from the frames turned to a pinhole's view;
+    a lens beyond the range, or a calibration told without a lens, is refused."""
+    truths = {}
+    for name, extra in (("pinhole", ()), ("lens", ("--lens-k1", "-0.1")),
+                        ("told", ("--lens-k1", "-0.1", "--tell-calibration"))):
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "5", "--rows", "exact10", *extra,
+                   "--save-clips", str(tmp_path / name), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        run = json.loads(out.read_text())
+        assert run["lens_k1"] == (0.0 if name == "pinhole" else -0.1)
+        assert run["tell_calibration"] == (name == "told")
+        assert all(r["lens_k1"] == run["lens_k1"] for r in run["records"])
+        truths[name] = (json.loads((tmp_path / name / "clip5.json").read_text()),
+                        np.load(tmp_path / name / "clip5.npy"), run["records"])
+    sensed = ("lens_k1", "texture_dn", "noise_dn")
+    (pin, pin_frames, _), (lens, lens_frames, untold), (told, told_frames, read) = (
+        truths["pinhole"], truths["lens"], truths["told"])
+    assert told == lens  # the same clip, told its calibration
+    assert {k: v for k, v in pin.items() if k not in sensed} == {
+        k: v for k, v in lens.items() if k not in sensed}
+    assert lens["focal_px"] == pin["focal_px"] and lens["lens_k1"] == -0.1
+    assert not np.array_equal(pin_frames, lens_frames)
+    np.testing.assert_array_equal(lens_frames, told_frames)  # the camera's frames, saved
+    assert [r["est"] for r in read] != [r["est"] for r in untold]
+    for args, message in ((("--lens-k1", "-0.2"), "--lens-k1 must be within +-0.12"),
+                          (("--tell-calibration",), "--tell-calibration needs --lens-k1")):
+        bad = _run("--clips", "1", *args)
+        assert bad.returncode == 2 and message in bad.stderr, bad.stderr
 
 
 def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:

@@ -22,6 +22,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLOCK_PERIOD_PX,
     MAX_ATTITUDE_SIGMA_DEG,
     TILE_SCATTER_LEVEL,
+    WEAK_TILE_SD_LOG,
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.tiles import Tile
@@ -106,11 +107,12 @@ class _Level:
 
         h, w = arr.shape[1:3]
         given = res, fits, p, focal_px, signal
-        focal, rot, made = focal_px, np.eye(3), None
+        focal, rot, made, faint, doubted = focal_px, np.eye(3), None, False, None
         for _ in range(ATTITUDE_PASSES):
             seen = _measuring(fits, weak)
             # a tile that no attitude explains measures no tilt (its peak is not the shell)
-            step = fit_tilt(without_odd_tile(seen, focal, TILE_SCATTER_LEVEL), focal)
+            kept = without_odd_tile(seen, focal, TILE_SCATTER_LEVEL)
+            step = fit_tilt(kept, focal)
             if (step is None or not step.significant(ATTITUDE_LEVEL)
                     or not step.fits(ATTITUDE_LEVEL) or step.tilt_deg > MAX_TILT_DEG):
                 break
@@ -122,8 +124,11 @@ class _Level:
             new, s_new, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
             if not self._holds_shell(new, prominent=False):  # no wave signal
                 break
+            # the step's fit with its weak tiles' doubt, for its uncertainty (below)
+            doubted = fit_tilt(_doubted(kept, fits), focal) or step
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
-            res.signal += "+levelled"
+            faint = faint or len(seen) > len(fits)
+            res.signal += "+levelled" + ("+faint" if faint else "")
             res.attitude_deg = (roll, pitch)
             fits, weak = self._corner_fits(signal, res, fps, focal, p, not self._holds_shell(res))
         if made is None:
@@ -142,12 +147,20 @@ class _Level:
             if self._holds_shell(res):
                 res.reason = res.reason or UNCONFIRMED_TILT
             return res, fits, p, focal, signal
-        last = fit_tilt(seen, focal) or made
+        # the tilt's uncertainty, a weak tile's peak taken as possibly off the shell
+        last = fit_tilt(_doubted(seen, fits), focal) or doubted
         theta = math.acos(min(float(rot[2, 2]), 1.0))
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
         res.altitude_std_m = res.altitude_m * math.sqrt(
             (res.altitude_std_m / res.altitude_m) ** 2 + var)
         return res, fits, p, focal, signal
+
+
+def _doubted(seen: list[Tile], fits: list[Tile]) -> list[Tile]:
+    """The tiles ``seen`` with the weak ones' (those not in ``fits``) sigma widened by
+    ``WEAK_TILE_SD_LOG``: a weak tile's peak may lie off the shell anywhere within the
+    reach of a tilt, where its own sigma says nothing of how far."""
+    return [t if t in fits else (*t[:3], math.hypot(t[3], WEAK_TILE_SD_LOG)) for t in seen]
 
 
 def _measuring(fits: list[Tile], weak: list[Tile] | tuple[()]) -> list[Tile]:

@@ -73,10 +73,12 @@ class DispersionResult:
         The scalar sequence fitted (``"luma"`` or ``"chroma"``) and the tiles it was
         transformed on (``"corners"`` or ``"full"``), e.g. ``"chroma/corners"``; a blind fit
         from which a pattern carried with the water (foam) was removed adds ``"+carried"``;
-        one made on frames levelled at a tilt the altimeter measured adds ``"+levelled"``;
-        frames turned back at a yaw rate adds ``"+unturned"``, at one the tiles measured
-        ``"+yaw"``; a fit of the frames as they are, kept where turning them back at the
-        rate the tiles showed lost the shell, ``"+turn-refuted"``.
+        one made on frames levelled at a tilt the altimeter measured adds ``"+levelled"``,
+        and ``"+faint"`` where faint corner tiles (below the bar a tile's shell must clear)
+        helped to measure it; frames turned back at a yaw rate adds ``"+unturned"``, at one
+        the tiles measured ``"+yaw"``; a fit of the frames as they are, kept where turning
+        them back at the rate the tiles showed lost the shell or needed a tilt that the
+        frames as they are do not, ``"+turn-refuted"``.
     attitude_deg : (float, float) or None
         ``(roll, pitch)``, degrees (:func:`wavealt.camera.tilt_rotation`'s convention), at
         which the altimeter levelled the frames before this fit, measured from the scales of

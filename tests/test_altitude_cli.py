@@ -104,6 +104,8 @@ def test_text_output_says_whether_to_trust_it(tmp_path, run_cli, frames) -> None
     assert out.startswith("altitude:") and "TRUSTED" in out
     assert "mode: prior (gravity dispersion)" in out
     assert "camera velocity over the water: (" in out and "image +x columns, +y rows" in out
+    # no calibration: the frames are taken for a pinhole, and the output says so
+    assert "camera: taken as a distortion-free pinhole" in out and "--calibration" in out
     # a frozen clip (one frame repeated) holds no moving waves: printed, but marked
     write_frames_folder(tmp_path / "frozen", np.repeat(clip[:1], 12, axis=0))
     code, out, _ = run_cli(["altitude", str(tmp_path / "frozen"), "--fps", "30",

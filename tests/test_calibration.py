@@ -442,6 +442,7 @@ def test_cli_levels_a_tilted_clip_from_its_calibration(tmp_path, run_cli) -> Non
     code, out, err = run_cli([*base, "--attitude", str(att)])
     assert code == 0, err
     assert "levelled to nadir (attitude from" in out
+    assert "distortion-free pinhole" not in out  # the calibration given says what the lens is
     code, out, err = run_cli([*base, "--attitude", str(att), "--roll-deg", "1"])
     assert code == 2 and "not both" in err
     code, out, err = run_cli([*base, "--focal-px", "200"])

@@ -290,8 +290,7 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
     timing = {"timestamps": "the video's timestamps", "fps": "--fps", "csv": "--frame-times"}
     click.echo(f"frame times from {timing[clip.timing]} ({clip.source_fps:.3g} fps), "
                f"{summary['dropped_frames']} dropped frame(s)")
-    if view is not None:
-        click.echo(view)
+    click.echo(view)
     if out is not None:
         click.echo(f"written: {out}")
 
@@ -449,10 +448,11 @@ def _calibration(w: int, h: int, focal_px: float | None, fov_deg: float | None,
 
 def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
                 calibration: Path | None, roll_deg: float | None, pitch_deg: float | None,
-                attitude: Path | None) -> tuple[Any, float, str | None]:
+                attitude: Path | None) -> tuple[Any, float, str]:
     """The frames the altimeter fits, their focal length, and a line saying how they were
-    made: as read for a nadir pinhole; undistorted and levelled (``camera.NadirView``) for a
-    calibration or an attitude."""
+    made: as read, taken for a distortion-free pinhole (which the waves cannot check: an
+    uncalibrated barrel lens reads high, ``docs/dispersion.md``, forty-fifth session);
+    undistorted and levelled (``camera.NadirView``) for a calibration or an attitude."""
     import numpy as np
 
     from wavealt.camera import NadirView, read_attitude, read_calibration
@@ -463,7 +463,9 @@ def _level_view(clip: Any, focal_px: float | None, fov_deg: float | None,
     calib = _calibration(w, h, focal_px, fov_deg, lens)
     tilted = attitude is not None or (roll_deg, pitch_deg) != (None, None)
     if lens is None and not tilted:
-        return frames, float(calib.camera_matrix[0, 0]), None
+        return frames, float(calib.camera_matrix[0, 0]), (
+            "camera: taken as a distortion-free pinhole (a lens that distorts reads high: "
+            "give --calibration)")
     if attitude is not None:
         roll, pitch = read_attitude(attitude, clip.times_s)
         source = f"attitude from {attitude}"

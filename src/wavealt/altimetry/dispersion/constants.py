@@ -277,7 +277,7 @@ WEAK_TILE_BAR = 0.5
 #: peak's sharpness, allows.  Measured on the independent generator's tilt tuning seeds
 #: 1000 / 2000 (1-s blind and 10-frame exact windows levelled, tilts up to 10 degrees): in
 #: the levelled views, the weak tiles' log altitudes lie off the truth by 0.079 rms beyond
-#: their own sigma (141 tiles; 6.7 % of them beyond 5 sigma), the tiles over the bar by
+#: their own sigma (141 tiles; 6.4 % of them beyond 5 sigma), the tiles over the bar by
 #: 0.037 (631).  A level camera's two weak tiles once read -12 and -15 % at sigma 2-5 %,
 #: levelled the frames at 7 degrees, and the fit read -9 % at sigma 2 %
 #: (``docs/dispersion.md``, forty-fifth session).  It widens the uncertainty alone: the

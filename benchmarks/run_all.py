@@ -32,6 +32,7 @@ QUICK_ARGS: dict[str, list[str]] = {
     "latency": ["--sequences", "3", "--amplitudes", "0.5", "--delays-ms", "0,100"],
     "live_shake": ["--sequences", "1", "--amplitudes", "1", "--frames", "50"],
     "realistic": ["--size", "128", "--sequences", "2"],
+    "resample": ["--clips", "4"],
     "scale": ["--sequences", "4", "--size", "64", "--repeats", "1"],
     "simulate": ["--sequences", "4"],
 }

@@ -1085,11 +1085,17 @@ def main() -> int:
                "fps": a.fps,
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
-    if a.out:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps({**summary, "records": records}, indent=1))
-    print(json.dumps(summary, indent=1))
+    report(summary, records, a.out)
     return 0
+
+
+def report(summary: dict[str, Any], records: list[dict], out: Path | None) -> None:
+    """Print ``summary`` as one JSON object; with ``out``, write it there with every
+    window's ``records`` (``--out``)."""
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps({**summary, "records": records}, indent=1))
+    print(json.dumps(summary, indent=1))
 
 
 if __name__ == "__main__":

@@ -22,7 +22,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from functools import partial  # noqa: E402
@@ -97,10 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                "shift_px": a.shift_px, "interpolation": a.interpolation, "rows": list(rows),
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": gen.summarize(records, rows)}
-    if a.out:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps({**summary, "records": records}, indent=1))
-    print(json.dumps(summary, indent=1))
+    gen.report(summary, records, a.out)
     return 0
 
 

@@ -101,16 +101,16 @@ PRIOR_SIGMA_MPS = 1.0  # the prior row's default sigma (--prior-sigma)
 #: non-linear in the facet slope; or the gradient sky with fair-weather cumulus (``clouds``:
 #: :func:`cloud_cover`)
 SKIES = ("gradient", "cie", "clouds")
+#: the spreading exponent s of ``--one-way`` seas (cos^2s of half the angle: 15-40 puts half
+#: the energy within about +-10-17 degrees of the wind), drawn from the clip's stream
+#: ``(seed, 7)``
+ONE_WAY_SPREAD = (15.0, 40.0)
 #: the cumulus deck of ``--sky clouds``, in the tangent plane of the reflected ray
 #: (``(rx, ry) / rz``: horizontal distance over the cloud base's height): cosine waves of
 #: wavelength CLOUD_SCALE (0.15-0.8: 150-800 m cells under a 1-km base), their sum a unit
 #: normal field, thresholded to cover CLOUD_COVER of the sky with edges CLOUD_EDGE (in the
 #: field's sd) wide; the cloud CLOUD_BRIGHTNESS times the zenith's radiance (sunlit cumulus
 #: against a blue sky)
-#: the spreading exponent s of ``--one-way`` seas (cos^2s of half the angle: 15-40 puts half
-#: the energy within about +-10-17 degrees of the wind), drawn from the clip's stream
-#: ``(seed, 7)``
-ONE_WAY_SPREAD = (15.0, 40.0)
 CLOUD_WAVES = 24
 CLOUD_SCALE = (0.15, 0.8)
 CLOUD_COVER = (0.2, 0.7)

@@ -107,7 +107,7 @@ class _Level:
 
         h, w = arr.shape[1:3]
         given = res, fits, p, focal_px, signal
-        focal, rot, made, faint, doubted = focal_px, np.eye(3), None, False, None
+        focal, rot, made, faint, made_from = focal_px, np.eye(3), None, False, None
         for _ in range(ATTITUDE_PASSES):
             seen = _measuring(fits, weak)
             # a tile that no attitude explains measures no tilt (its peak is not the shell)
@@ -124,8 +124,7 @@ class _Level:
             new, s_new, p_new = self._fit(view(arr), fps, view.focal_px, prior, lattice)
             if not self._holds_shell(new, prominent=False):  # no wave signal
                 break
-            # the step's fit with its weak tiles' doubt, for its uncertainty (below)
-            doubted = fit_tilt(_doubted(kept, fits), focal) or step
+            made_from = _doubted(kept, fits), focal  # the step's tiles, for its uncertainty
             rot, res, focal, made, p, signal = turned, new, view.focal_px, step, p_new, s_new
             faint = faint or len(seen) > len(fits)
             res.signal += "+levelled" + ("+faint" if faint else "")
@@ -147,8 +146,9 @@ class _Level:
             if self._holds_shell(res):
                 res.reason = res.reason or UNCONFIRMED_TILT
             return res, fits, p, focal, signal
-        # the tilt's uncertainty, a weak tile's peak taken as possibly off the shell
-        last = fit_tilt(_doubted(seen, fits), focal) or doubted
+        # the tilt's uncertainty, a weak tile's peak taken as possibly off the shell: the
+        # levelled view's tiles, else those of the last step made
+        last = fit_tilt(_doubted(seen, fits), focal) or fit_tilt(*made_from) or made
         theta = math.acos(min(float(rot[2, 2]), 1.0))
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
         res.altitude_std_m = res.altitude_m * math.sqrt(

@@ -701,6 +701,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
         np.save(Path(save_dir) / f"clip{seed}.npy", frames)
         (Path(save_dir) / f"clip{seed}.json").write_text(json.dumps(truth, indent=1))
     focal = frame_focal_px(sc)
+    saturated = float(np.mean(frames == 255))  # the camera's frames, not a view of them
     if TELL_CALIBRATION and sc.lens_k1 != 0.0:  # the frames a pinhole's view, as given
         from wavealt.camera import NadirView
 
@@ -710,7 +711,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
                                   "ae_rate", "ae_jitter", "depth_m", "lens_k1")}
-    base["saturated_share"] = float(np.mean(frames == 255))
+    base["saturated_share"] = saturated
     velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
                 "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
     records = []
@@ -1036,11 +1037,12 @@ def main() -> int:
     if a.tell_depth and depth is None:
         ap.error("--tell-depth needs --depth-m")
     if a.attitude_sigma_deg is not None:
-        from wavealt.altimetry.dispersion.constants import MAX_ATTITUDE_SIGMA_DEG as TOP
+        from wavealt.altimetry.dispersion.levelling import check_attitude_sigma
 
-        if not 0.0 < a.attitude_sigma_deg <= TOP:
-            ap.error(f"--attitude-sigma-deg must be within (0, {TOP:g}]; "
-                     f"got {a.attitude_sigma_deg:g}")
+        try:
+            check_attitude_sigma("--attitude-sigma-deg", a.attitude_sigma_deg)
+        except ValueError as exc:
+            ap.error(str(exc))
     if not 1 <= a.supersample <= 4 or not 64 <= a.size * a.supersample <= 2048:
         ap.error(f"--supersample must be within 1-4, and --size times it within 64-2048 px; "
                  f"got {a.supersample} and {a.size}")

@@ -727,11 +727,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     if args.attitude_sigma_deg is not None:
         if args.attitude != "estimate":
             ap.error("--attitude-sigma-deg goes with --attitude estimate")
-        from wavealt.altimetry.dispersion.constants import MAX_ATTITUDE_SIGMA_DEG as TOP
+        from wavealt.altimetry.dispersion.levelling import check_attitude_sigma
 
-        if not 0.0 < args.attitude_sigma_deg <= TOP:
-            ap.error(f"--attitude-sigma-deg must be in (0, {TOP:g}]; "
-                     f"got {args.attitude_sigma_deg:g}")
+        try:
+            check_attitude_sigma("--attitude-sigma-deg", args.attitude_sigma_deg)
+        except ValueError as exc:
+            ap.error(str(exc))
     if args.fov_deg is not None and not 10.0 <= args.fov_deg <= 150.0:
         ap.error(f"--fov-deg must be within 10-150; got {args.fov_deg:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),

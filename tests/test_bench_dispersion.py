@@ -34,7 +34,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--fov-deg", "170"), "--fov-deg must be within 10-150; got 170"),
     (("--rows", "realistic-2-blind"), "--rows: unknown ['realistic-2-blind']"),
     (("--attitude", "tilted"), "argument --attitude: invalid choice: 'tilted'"),
-    (("--attitude-sigma-deg", "0"), "--attitude-sigma-deg must be in (0, 15]; got 0"),
+    (("--attitude-sigma-deg", "0"), "--attitude-sigma-deg must be in (0, 15] degrees; got 0"),
     (("--attitude", "level", "--attitude-sigma-deg", "1"),
      "--attitude-sigma-deg goes with --attitude estimate"),
 ])

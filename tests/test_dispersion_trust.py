@@ -447,7 +447,7 @@ def test_a_gimbals_prior_weighs_the_tilt_the_tiles_cannot_measure(tmp_path, run_
     code, out, err = run_cli([*base[:-1], "--attitude-sigma-deg", "1"])
     assert code == 0 and "camera attitude: within 1 deg of nadir a side" in out, err
     code, out, err = run_cli([*base, "--attitude-sigma-deg", "0"])
-    assert code != 0 and "--attitude-sigma-deg must be in (0, 15] degrees; got 0.0" in err
+    assert code != 0 and "--attitude-sigma-deg must be in (0, 15] degrees; got 0" in err
 
 
 def test_the_command_lines_altimeter_takes_an_attitude_given_exactly_unless_told_its_error(

@@ -190,12 +190,9 @@ def altitude(input_path: Path | None, live: str | None, live_format: str | None,
             msg = f"--velocity-sigma-mps must be a finite number >= 0; got {velocity_sigma_mps!r}"
             raise ValueError(msg)
     if attitude_sigma_deg is not None:
-        from wavealt.altimetry.dispersion.constants import MAX_ATTITUDE_SIGMA_DEG as TOP
+        from wavealt.altimetry.dispersion.levelling import check_attitude_sigma
 
-        if not (math.isfinite(attitude_sigma_deg) and 0 < attitude_sigma_deg <= TOP):
-            msg = (f"--attitude-sigma-deg must be in (0, {TOP:g}] degrees; "
-                   f"got {attitude_sigma_deg!r}")
-            raise ValueError(msg)
+        check_attitude_sigma("--attitude-sigma-deg", attitude_sigma_deg)
     if readout_ms is not None and not (math.isfinite(readout_ms) and readout_ms >= 0):
         msg = f"--readout-ms must be a finite number >= 0; got {readout_ms!r}"
         raise ValueError(msg)

@@ -46,8 +46,19 @@ def attitude_prior_deg(attitude: str, sigma_deg: float | None) -> float:
         msg = (f"attitude_sigma_deg is the prior of a tilt the altimeter measures: give it "
                f"with attitude='estimate', not {attitude!r}")
         raise ValueError(msg)
-    return check_finite_number("attitude_sigma_deg", sigma_deg, low=0.0, low_open=True,
-                               high=MAX_ATTITUDE_SIGMA_DEG)
+    return check_attitude_sigma("attitude_sigma_deg", sigma_deg)
+
+
+def check_attitude_sigma(name: str, value: Any) -> float:
+    """``value`` as the prior of a camera's tilt, degrees per axis, in ``(0,
+    MAX_ATTITUDE_SIGMA_DEG]`` (the tilts the tiles can measure); a one-line ``ValueError``
+    naming ``name`` (the parameter or the flag it came in) otherwise.  The library, the
+    command line and the benchmarks take it through this one check."""
+    x = check_finite_number(name, value)
+    if not 0.0 < x <= MAX_ATTITUDE_SIGMA_DEG:
+        msg = f"{name} must be in (0, {MAX_ATTITUDE_SIGMA_DEG:g}] degrees; got {x:g}"
+        raise ValueError(msg)
+    return x
 
 
 class _Level:

@@ -641,6 +641,49 @@ def write_outputs(result: dict[str, Any], recs: list[dict[str, Any]], out: Path)
     atomic_write_text(out.with_suffix(".csv"), buf.getvalue())
 
 
+def read_windows(path: Path) -> list[dict[str, Any]]:
+    """The windows of a run's CSV (:func:`write_outputs`) as records: the row, the truth,
+    the estimate, its standard deviation and trust; a ``ValueError`` naming what is
+    missing for a file that is not one."""
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        need = {"row", "status", "altitude_m", "est_altitude_m", "est_std_m", "trusted"}
+        missing = sorted(need - set(reader.fieldnames or ()))
+        if missing:
+            raise ValueError(f"{path} is not a bench_dispersion window CSV (no {missing})")
+        recs = []
+        for line, r in enumerate(reader, start=2):
+            try:
+                recs.append({"row": r["row"], "status": r["status"],
+                             "altitude_m": float(r["altitude_m"]),
+                             "est_altitude_m": float(r["est_altitude_m"] or "nan"),
+                             "est_std_m": float(r["est_std_m"] or "nan"),
+                             "trusted": r["trusted"] == "True"})
+            except ValueError:
+                raise ValueError(f"{path}, line {line}: not a number where one belongs") from None
+    if not recs:
+        raise ValueError(f"{path} holds no windows")
+    return recs
+
+
+def draw_windows(recs: list[dict[str, Any]], path: Path) -> Path:
+    """:func:`wavealt.plots.figure_altimeter_windows` of windows ``recs``, one line a row
+    (its seeds and conditions together; windows the renderer refused left out)."""
+    from wavealt.plots import figure_altimeter_windows
+
+    rows: dict[str, dict[str, list]] = {}
+    for r in recs:
+        if r["status"] == "generation-error":
+            continue
+        d = rows.setdefault(r["row"], {"true_m": [], "est_m": [], "std_m": [], "trusted": []})
+        for key, field in (("true_m", "altitude_m"), ("est_m", "est_altitude_m"),
+                           ("std_m", "est_std_m"), ("trusted", "trusted")):
+            d[key].append(r[field])
+    order = {name: i for i, name in enumerate(ROW_BY_NAME)}  # the targets' order first
+    rows = dict(sorted(rows.items(), key=lambda kv: (order.get(kv[0], len(order)), kv[0])))
+    return figure_altimeter_windows(rows, path)
+
+
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -688,7 +731,22 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--fov-deg", type=float, default=None,
                     help="the camera's horizontal field of view, degrees (default: the "
                          "presets', 60)")
+    ap.add_argument("--figure", type=Path, default=None, metavar="PNG",
+                    help="also draw each row's windows here: estimate against truth, and the "
+                         "share within k stated sigmas against k (plots."
+                         "figure_altimeter_windows)")
+    ap.add_argument("--redraw", type=Path, default=None, metavar="CSV",
+                    help="with --figure: draw the windows of a run's .csv (written by --out) "
+                         "instead of running")
     args = ap.parse_args(argv)
+    if args.redraw is not None:
+        if args.figure is None:
+            ap.error("--redraw needs --figure (the PNG to draw)")
+        try:
+            args.redrawn = read_windows(args.redraw)
+        except (OSError, ValueError) as exc:
+            ap.error(f"--redraw: {exc}")
+        return args
     names = [s.strip() for s in args.rows.split(",") if s.strip()]
     unknown = [n for n in names if row_of(n) is None]
     if unknown or not names:
@@ -746,6 +804,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.redraw is not None:
+        print(draw_windows(args.redrawn, args.figure))
+        return 0
     init_process()
     t0 = time.perf_counter()
     if not args.no_cache:
@@ -794,6 +855,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     }
     if args.out is not None:
         write_outputs(result, recs, args.out)
+    if args.figure is not None:
+        draw_windows(recs, args.figure)
     print(json.dumps(result, indent=2))
     return 0
 

@@ -37,6 +37,9 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--attitude-sigma-deg", "0"), "--attitude-sigma-deg must be in (0, 15] degrees; got 0"),
     (("--attitude", "level", "--attitude-sigma-deg", "1"),
      "--attitude-sigma-deg goes with --attitude estimate"),
+    (("--redraw", "run.csv"), "--redraw needs --figure (the PNG to draw)"),
+    (("--redraw", "/nonexistent/run.csv", "--figure", "f.png"),
+     "--redraw: [Errno 2] No such file or directory: '/nonexistent/run.csv'"),
 ])
 def test_bad_options_are_refused_in_one_line(args, message) -> None:
     res = _run(*args)
@@ -144,3 +147,28 @@ def test_cache_folders_of_an_older_simulator_are_found_and_pruned(tmp_path, caps
     assert "removed 1 stale cache folders" in capsys.readouterr().err
     assert not older.exists() and current.exists() and unjudged.exists()
     assert bench.stale_cache_folders(tmp_path / "absent") == []
+
+
+def test_a_run_s_windows_are_redrawn_from_its_csv(tmp_path) -> None:
+    """``--redraw CSV --figure PNG`` draws a run's windows without running (rows in the
+    targets' order); a CSV that is not a run's, or holds a word where a number belongs, is
+    refused in one line naming the file, and no figure is written."""
+    fields = ["row", "seed", "index", "condition", "status", "altitude_m", "est_altitude_m",
+              "est_std_m", "trusted"]
+    rows = [[name, 7, i, "clean", "ok", 2.0 + i, (2.0 + i) * 1.01, 0.05, i % 2 == 0]
+            for name in ("realistic-10-exact", "realistic-30-blind") for i in range(6)]
+    run = tmp_path / "run.csv"
+    with open(run, "w", newline="") as fh:
+        csv.writer(fh).writerows([fields, *rows])
+    res = _run("--redraw", str(run), "--figure", str(tmp_path / "f.png"))
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert (tmp_path / "f.png").stat().st_size > 0
+    other = tmp_path / "other.csv"
+    other.write_text("row,altitude_m\nx,1\n")
+    word = tmp_path / "word.csv"
+    word.write_text(run.read_text().replace("3.0,3.03", "three,3.03", 1))
+    for bad, message in ((other, f"{other} is not a bench_dispersion window CSV (no "),
+                         (word, f"{word}, line 3: not a number where one belongs")):
+        res = _run("--redraw", str(bad), "--figure", str(tmp_path / "g.png"))
+        assert res.returncode == 2 and message in res.stderr.strip().splitlines()[-1]
+    assert not (tmp_path / "g.png").exists()

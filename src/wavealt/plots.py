@@ -249,6 +249,71 @@ def _grid(n: int, *, panel_in: float, aspect: float = 1.0,
     return fig, axes
 
 
+def coverage_curve(true_m: np.ndarray, est_m: np.ndarray, std_m: np.ndarray,
+                   ks: np.ndarray) -> np.ndarray:
+    """The share of windows whose estimate lies within ``k`` of its stated standard
+    deviations of the truth, ``|est - true| <= k std``, for each ``k`` of ``ks``; a window
+    without an estimate (NaN) is not covered.  NaN for no windows."""
+    t, e, s = (np.asarray(a, dtype=np.float64).ravel() for a in (true_m, est_m, std_m))
+    if not t.shape == e.shape == s.shape:
+        msg = f"true_m, est_m and std_m must have one length; got {t.size}, {e.size}, {s.size}"
+        raise ValueError(msg)
+    ks = np.asarray(ks, dtype=np.float64)
+    if t.size == 0:
+        return np.full(ks.shape, np.nan)
+    off = np.abs(e - t)
+    with np.errstate(invalid="ignore"):
+        return np.array([float(np.mean(off <= k * s)) for k in ks.ravel()]).reshape(ks.shape)
+
+
+def figure_altimeter_windows(rows: dict, path: Path, *, title: str = "") -> Path:
+    """One line of two panels a benchmark row of the dispersion altimeter: each window's
+    estimate against the truth (trusted filled, not trusted hollow; the band of +-10 %
+    shaded), and the share of windows within ``k`` of their stated standard deviations
+    against ``k`` (all, trusted), beside what normal errors of that size would give.
+
+    ``rows`` maps a row's name to ``{"true_m", "est_m", "std_m", "trusted"}`` arrays."""
+    from math import erf, sqrt
+
+    ks = np.linspace(0.0, 4.0, 81)
+    fig, axes = plt.subplots(len(rows), 2, figsize=(8.6, 3.5 * len(rows) + 0.5),
+                             squeeze=False, layout="constrained")
+    for (ax, cov), (name, d) in zip(axes, rows.items()):
+        t, e, s = (np.asarray(d[k], dtype=np.float64) for k in ("true_m", "est_m", "std_m"))
+        tr = np.asarray(d["trusted"], dtype=bool)
+        ok = np.isfinite(e) & (e > 0)
+        lo, hi = float(t.min()) / 1.3, float(t.max()) * 1.3
+        line = np.array([lo, hi])
+        ax.fill_between(line, line / 1.1, line * 1.1, color="0.88", lw=0, label="within 10 %")
+        ax.plot(line, line, "k--", lw=0.8)
+        ax.scatter(t[ok & ~tr], np.clip(e[ok & ~tr], lo / 2, hi * 2), s=9, facecolors="none",
+                   edgecolors="0.5", lw=0.6, label=f"not trusted ({int((~tr).sum())})")
+        ax.scatter(t[ok & tr], e[ok & tr], s=9, color="tab:blue",
+                   label=f"trusted ({int(tr.sum())})")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(lo / 2, hi * 2)
+        mae = 100.0 * float(np.mean(np.abs(e[ok] / t[ok] - 1.0))) if ok.any() else math.nan
+        ax.set_title(f"{name}: relative MAE {mae:.1f} %", fontsize=10)
+        ax.set_xlabel("true altitude (m)")
+        ax.set_ylabel("estimate (m)")
+        ax.legend(fontsize=7, loc="upper left")
+        cov.plot(ks, [erf(k / sqrt(2.0)) for k in ks], "k--", lw=0.8, label="normal errors")
+        cov.plot(ks, coverage_curve(t, e, s, ks), color="0.45", label="all windows")
+        if tr.any():
+            cov.plot(ks, coverage_curve(t[tr], e[tr], s[tr], ks), color="tab:blue",
+                     label="trusted")
+        cov.axvline(3.0, color="0.7", lw=0.8)
+        cov.set_xlim(0.0, 4.0)
+        cov.set_ylim(0.0, 1.02)
+        cov.set_xlabel("k (stated standard deviations)")
+        cov.set_ylabel("share within k sigma of the truth")
+        cov.legend(fontsize=7, loc="lower right")
+    fig.suptitle(title or "Dispersion altimeter: estimates and their stated uncertainty")
+    return _save(fig, path)
+
+
 #: Scenes of :func:`figure_presets`: altitude (m), wind (m/s), sun zenith (deg).
 PRESET_SCENES = ((2.0, 3.0, 20.0), (6.0, 7.0, 35.0), (14.0, 10.0, 60.0))
 

@@ -668,20 +668,14 @@ def read_windows(path: Path) -> list[dict[str, Any]]:
 
 def draw_windows(recs: list[dict[str, Any]], path: Path) -> Path:
     """:func:`wavealt.plots.figure_altimeter_windows` of windows ``recs``, one line a row
-    (its seeds and conditions together; windows the renderer refused left out)."""
-    from wavealt.plots import figure_altimeter_windows
+    (its seeds and conditions together, the targets' rows first; windows the renderer
+    refused left out)."""
+    from wavealt.plots import figure_altimeter_windows, windows_by_row
 
-    rows: dict[str, dict[str, list]] = {}
-    for r in recs:
-        if r["status"] == "generation-error":
-            continue
-        d = rows.setdefault(r["row"], {"true_m": [], "est_m": [], "std_m": [], "trusted": []})
-        for key, field in (("true_m", "altitude_m"), ("est_m", "est_altitude_m"),
-                           ("std_m", "est_std_m"), ("trusted", "trusted")):
-            d[key].append(r[field])
-    order = {name: i for i, name in enumerate(ROW_BY_NAME)}  # the targets' order first
-    rows = dict(sorted(rows.items(), key=lambda kv: (order.get(kv[0], len(order)), kv[0])))
-    return figure_altimeter_windows(rows, path)
+    kept = [r for r in recs if r["status"] != "generation-error"]
+    return figure_altimeter_windows(
+        windows_by_row(kept, ("altitude_m", "est_altitude_m", "est_std_m", "trusted"),
+                       tuple(ROW_BY_NAME)), path)
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:

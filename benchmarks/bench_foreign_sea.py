@@ -1003,9 +1003,24 @@ def main() -> int:
     ap.add_argument("--supersample", type=int, default=1, metavar="N",
                     help="each pixel the mean of N x N radiance samples (a pixel integrates "
                          "the light over its area; 1: one sample at its centre, the default)")
+    ap.add_argument("--figure", type=Path, default=None, metavar="PNG",
+                    help="also draw each row's windows here: estimate against truth, and the "
+                         "share within k stated sigmas against k")
+    ap.add_argument("--redraw", type=Path, default=None, metavar="JSON",
+                    help="with --figure: draw the windows of a run's --out JSON instead of "
+                         "running")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
+    if a.redraw is not None:
+        if a.figure is None:
+            ap.error("--redraw needs --figure (the PNG to draw)")
+        try:
+            records = json.loads(a.redraw.read_text())["records"]
+            print(draw_windows(records, a.figure))
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            ap.error(f"--redraw: {a.redraw} is not a run's --out JSON ({exc!r})")
+        return 0
     if not 5.0 <= a.fps <= 240.0:
         ap.error(f"--fps must be within 5-240; got {a.fps:g}")
     if a.self_check:
@@ -1088,7 +1103,19 @@ def main() -> int:
                "seconds": round(time.perf_counter() - t0, 1),
                "metrics": summarize(records, rows)}
     report(summary, records, a.out)
+    if a.figure is not None:
+        draw_windows(records, a.figure)
     return 0
+
+
+def draw_windows(records: list[dict], path: Path) -> Path:
+    """:func:`wavealt.plots.figure_altimeter_windows` of a run's window ``records``, one
+    line a row (its clips together)."""
+    from wavealt.plots import figure_altimeter_windows, windows_by_row
+
+    return figure_altimeter_windows(
+        windows_by_row(records, ("altitude_m", "est", "std", "trusted"), tuple(ROWS)), path,
+        title="Independent sea generator: estimates and their stated uncertainty")
 
 
 def report(summary: dict[str, Any], records: list[dict], out: Path | None) -> None:

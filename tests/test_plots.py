@@ -15,6 +15,7 @@ from wavealt.plots import (
     figure_altimeter_windows,
     figure_error_distribution,
     figure_predicted_vs_actual,
+    windows_by_row,
 )
 
 CONDITIONS = ("clean", "glinty", "residual", "tmf-min", "median", "percentile", "glint-mask",
@@ -77,3 +78,14 @@ def test_the_altimeter_figure_is_a_line_of_two_panels_a_row(tmp_path) -> None:
                                             tmp_path / f"{n}.png")) for n in (1, 2)]
     (w1, h1), (w2, h2) = sizes
     assert w1 == w2 and w1 > h1 and 1.7 < h2 / h1 < 2.2
+
+
+def test_windows_are_grouped_by_row_in_the_order_asked() -> None:
+    """Each row keeps its windows in their order, read from the fields named; the rows
+    named in ``order`` come first in that order, the rest after by name."""
+    recs = [{"row": r, "h": h, "e": h + 1, "s": 0.1, "t": h > 2}
+            for r, h in (("z", 1.0), ("b", 2.0), ("a", 3.0), ("b", 4.0))]
+    rows = windows_by_row(recs, ("h", "e", "s", "t"), order=("b", "q"))
+    assert list(rows) == ["b", "a", "z"]
+    assert rows["b"] == {"true_m": [2.0, 4.0], "est_m": [3.0, 5.0], "std_m": [0.1, 0.1],
+                         "trusted": [False, True]}

@@ -266,6 +266,21 @@ def coverage_curve(true_m: np.ndarray, est_m: np.ndarray, std_m: np.ndarray,
         return np.array([float(np.mean(off <= k * s)) for k in ks.ravel()]).reshape(ks.shape)
 
 
+def windows_by_row(records: list[dict], fields: tuple[str, str, str, str],
+                   order: tuple[str, ...] = ()) -> dict[str, dict[str, list]]:
+    """Benchmark windows ``records`` (dicts with a ``"row"``) as
+    :func:`figure_altimeter_windows` takes them: per row, the truth, the estimate, its
+    standard deviation and trust, read from the records' ``fields`` (in that order); the
+    rows named in ``order`` first, in that order, the others after by name."""
+    rows: dict[str, dict[str, list]] = {}
+    for r in records:
+        d = rows.setdefault(r["row"], {"true_m": [], "est_m": [], "std_m": [], "trusted": []})
+        for key, field in zip(("true_m", "est_m", "std_m", "trusted"), fields):
+            d[key].append(r[field])
+    rank = {name: i for i, name in enumerate(order)}
+    return dict(sorted(rows.items(), key=lambda kv: (rank.get(kv[0], len(rank)), kv[0])))
+
+
 def figure_altimeter_windows(rows: dict, path: Path, *, title: str = "") -> Path:
     """One line of two panels a benchmark row of the dispersion altimeter: each window's
     estimate against the truth (trusted filled, not trusted hollow; the band of +-10 %

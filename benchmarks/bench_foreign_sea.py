@@ -1007,19 +1007,20 @@ def main() -> int:
                     help="also draw each row's windows here: estimate against truth, and the "
                          "share within k stated sigmas against k")
     ap.add_argument("--redraw", type=Path, default=None, metavar="JSON",
-                    help="with --figure: draw the windows of a run's --out JSON instead of "
-                         "running")
+                    help="with --figure: draw the windows of a run's --out JSON (or its .gz) "
+                         "instead of running")
     ap.add_argument("--save-clips", metavar="DIR", help="write each clip (.npy) and its truth")
     ap.add_argument("--self-check", action="store_true", help="check the generator and exit")
     a = ap.parse_args()
     if a.redraw is not None:
         if a.figure is None:
             ap.error("--redraw needs --figure (the PNG to draw)")
+        from plot_conditions import load_run  # a run's records, its .gz too
+
         try:
-            records = json.loads(a.redraw.read_text())["records"]
-            print(draw_windows(records, a.figure))
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            ap.error(f"--redraw: {a.redraw} is not a run's --out JSON ({exc!r})")
+            print(draw_windows(load_run(a.redraw), a.figure))
+        except (ValueError, KeyError, TypeError) as exc:  # records without a window's fields
+            ap.error(f"--redraw: {exc}")
         return 0
     if not 5.0 <= a.fps <= 240.0:
         ap.error(f"--fps must be within 5-240; got {a.fps:g}")

@@ -4,6 +4,7 @@ window of its rows."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import subprocess
 import sys
@@ -39,19 +40,23 @@ def test_the_generators_physics_checks_pass() -> None:
 
 def test_a_one_clip_run_reports_every_window(tmp_path) -> None:
     """Every window in the JSON, its figure drawn (``--figure``), and drawn again from the
-    JSON alone (``--redraw``); a redraw without a figure, or of a file that is not a run's,
-    is refused in one line."""
+    JSON alone, gzipped or not (``--redraw``); a redraw without a figure, or of a file that
+    is not a run's, is refused in one line."""
     out = tmp_path / "run.json"
     res = _run("--clips", "1", "--seed", "5", "--rows", "exact10,prior10", "--out", str(out),
                "--figure", str(tmp_path / "run.png"))
     assert res.returncode == 0, res.stderr[-2000:]
     assert (tmp_path / "run.png").stat().st_size > 0
-    again = _run("--redraw", str(out), "--figure", str(tmp_path / "again.png"))
-    assert again.returncode == 0 and (tmp_path / "again.png").stat().st_size > 0, again.stderr
+    packed = tmp_path / "run.json.gz"  # as docs/results keeps runs
+    packed.write_bytes(gzip.compress(out.read_bytes()))
+    for name, run in (("again.png", out), ("packed.png", packed)):
+        again = _run("--redraw", str(run), "--figure", str(tmp_path / name))
+        assert again.returncode == 0 and (tmp_path / name).stat().st_size > 0, again.stderr
     (tmp_path / "other.json").write_text('{"clips": 1}')
     for args, message in ((("--redraw", str(out)), "--redraw needs --figure"),
                           (("--redraw", str(tmp_path / "other.json"), "--figure", "x.png"),
-                           f"--redraw: {tmp_path / 'other.json'} is not a run's --out JSON")):
+                           f"--redraw: {tmp_path / 'other.json'}: not a bench_foreign_sea.py "
+                           "run with records (KeyError)")):
         bad = _run(*args)
         assert bad.returncode == 2 and message in bad.stderr.strip().splitlines()[-1]
     summary = json.loads(res.stdout)

@@ -288,8 +288,6 @@ def figure_altimeter_windows(rows: dict, path: Path, *, title: str = "") -> Path
     against ``k`` (all, trusted), beside what normal errors of that size would give.
 
     ``rows`` maps a row's name to ``{"true_m", "est_m", "std_m", "trusted"}`` arrays."""
-    from math import erf, sqrt
-
     ks = np.linspace(0.0, 4.0, 81)
     fig, axes = plt.subplots(len(rows), 2, figsize=(8.6, 3.5 * len(rows) + 0.5),
                              squeeze=False, layout="constrained")
@@ -314,7 +312,7 @@ def figure_altimeter_windows(rows: dict, path: Path, *, title: str = "") -> Path
         ax.set_xlabel("true altitude (m)")
         ax.set_ylabel("estimate (m)")
         ax.legend(fontsize=7, loc="upper left")
-        cov.plot(ks, [erf(k / sqrt(2.0)) for k in ks], "k--", lw=0.8, label="normal errors")
+        cov.plot(ks, [math.erf(k / math.sqrt(2.0)) for k in ks], "k--", lw=0.8, label="normal errors")
         cov.plot(ks, coverage_curve(t, e, s, ks), color="0.45", label="all windows")
         if tr.any():
             cov.plot(ks, coverage_curve(t[tr], e[tr], s[tr], ks), color="tab:blue",

@@ -50,6 +50,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import csv  # noqa: E402
 import functools  # noqa: E402
+import gzip  # noqa: E402
 import hashlib  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
@@ -642,10 +643,20 @@ def write_outputs(result: dict[str, Any], recs: list[dict[str, Any]], out: Path)
 
 
 def read_windows(path: Path) -> list[dict[str, Any]]:
-    """The windows of a run's CSV (:func:`write_outputs`) as records: the row, the truth,
-    the estimate, its standard deviation and trust; a ``ValueError`` naming what is
-    missing for a file that is not one."""
-    with open(path, newline="") as fh:
+    """The windows of a run's CSV (:func:`write_outputs`; gzipped where it ends in ``.gz``,
+    as ``docs/results`` keeps the large ones) as records: the row, the truth, the estimate,
+    its standard deviation and trust; a ``ValueError`` naming what is missing for a file
+    that is not one."""
+    try:
+        return _read_windows(path)
+    except (gzip.BadGzipFile, EOFError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path} is not a readable CSV ({exc.__class__.__name__})") from None
+
+
+def _read_windows(path: Path) -> list[dict[str, Any]]:
+    """:func:`read_windows`, the file read."""
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt", newline="") as fh:
         reader = csv.DictReader(fh)
         need = {"row", "status", "altitude_m", "est_altitude_m", "est_std_m", "trusted"}
         missing = sorted(need - set(reader.fieldnames or ()))
@@ -730,8 +741,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                          "share within k stated sigmas against k (plots."
                          "figure_altimeter_windows)")
     ap.add_argument("--redraw", type=Path, default=None, metavar="CSV",
-                    help="with --figure: draw the windows of a run's .csv (written by --out) "
-                         "instead of running")
+                    help="with --figure: draw the windows of a run's .csv (written by --out; "
+                         "or its .csv.gz) instead of running")
     args = ap.parse_args(argv)
     if args.redraw is not None:
         if args.figure is None:

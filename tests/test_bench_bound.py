@@ -4,7 +4,6 @@ a velocity to fit or wider bins loosen them, noise holds none)."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -12,16 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_bound.py"
 
 
 @pytest.fixture(scope="module")
 def bound():
-    spec = importlib.util.spec_from_file_location("bench_bound", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_bound")
 
 
 @pytest.mark.parametrize("frames", [10, 15, 30])

@@ -4,13 +4,14 @@ with one line, and its cache tells frames of an older simulator from the current
 from __future__ import annotations
 
 import csv
-import importlib.util
+import gzip
 import json
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_dispersion.py"
 
@@ -72,11 +73,7 @@ def test_the_encoder_option_reaches_the_realistic_frames(tmp_path) -> None:
 
 
 def _bench_module():
-    spec = importlib.util.spec_from_file_location("bench_dispersion_mod", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_dispersion")
 
 
 def test_the_frame_rate_reaches_both_presets_and_the_encoder_only_the_realistic() -> None:
@@ -152,7 +149,8 @@ def test_cache_folders_of_an_older_simulator_are_found_and_pruned(tmp_path, caps
 def test_a_run_s_windows_are_redrawn_from_its_csv(tmp_path) -> None:
     """``--redraw CSV --figure PNG`` draws a run's windows without running (rows in the
     targets' order); a CSV that is not a run's, or holds a word where a number belongs, is
-    refused in one line naming the file, and no figure is written."""
+    refused in one line naming the file, and no figure is written.  A gzipped run reads
+    as the plain one."""
     fields = ["row", "seed", "index", "condition", "status", "altitude_m", "est_altitude_m",
               "est_std_m", "trusted"]
     rows = [[name, 7, i, "clean", "ok", 2.0 + i, (2.0 + i) * 1.01, 0.05, i % 2 == 0]
@@ -163,6 +161,16 @@ def test_a_run_s_windows_are_redrawn_from_its_csv(tmp_path) -> None:
     res = _run("--redraw", str(run), "--figure", str(tmp_path / "f.png"))
     assert res.returncode == 0, res.stderr[-2000:]
     assert (tmp_path / "f.png").stat().st_size > 0
+    bench = _bench_module()
+    zipped = tmp_path / "run.csv.gz"  # as docs/results keeps the large runs
+    zipped.write_bytes(gzip.compress(run.read_bytes()))
+    assert bench.read_windows(zipped) == bench.read_windows(run)
+    res = _run("--redraw", str(zipped), "--figure", str(tmp_path / "z.png"))
+    assert res.returncode == 0 and (tmp_path / "z.png").stat().st_size > 0, res.stderr[-2000:]
+    broken = tmp_path / "broken.csv.gz"
+    broken.write_bytes(b"not gzip")
+    res = _run("--redraw", str(broken), "--figure", str(tmp_path / "g.png"))
+    assert res.returncode == 2 and str(broken) in res.stderr.strip().splitlines()[-1]
     other = tmp_path / "other.csv"
     other.write_text("row,altitude_m\nx,1\n")
     word = tmp_path / "word.csv"

@@ -3,7 +3,6 @@ windows is trusted, and bad options are refused in one line."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import subprocess
@@ -12,15 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_nulls.py"
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("bench_nulls", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_nulls")
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

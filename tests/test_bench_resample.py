@@ -3,7 +3,6 @@ reports its rows, and bad options are refused in one line."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import subprocess
@@ -12,15 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_resample.py"
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("bench_resample", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_resample")
 
 
 def test_a_half_pixel_shift_filters_as_its_interpolation_does() -> None:

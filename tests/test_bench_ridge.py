@@ -5,7 +5,6 @@ altitude)."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 from wavealt.altimetry.dispersion.spectra import sharpness_at
 
@@ -21,10 +21,7 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_ridge.py"
 
 @pytest.fixture(scope="module")
 def ridge_bench():
-    spec = importlib.util.spec_from_file_location("bench_ridge", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_ridge")
 
 
 def _table(est, altitude: float, velocity, fps: float, focal: float, frames: int,

@@ -4,13 +4,13 @@ line."""
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_shake.py"
 LATENCY = BENCH.with_name("bench_latency.py")
@@ -18,11 +18,7 @@ LIVE = BENCH.with_name("bench_live_shake.py")
 
 
 def _module():
-    sys.path.insert(0, str(BENCH.parent))
-    spec = importlib.util.spec_from_file_location("bench_shake", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_shake")
 
 
 def test_the_shaken_view_levelled_at_its_attitude_is_the_level_view() -> None:

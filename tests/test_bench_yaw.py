@@ -3,13 +3,13 @@ options are refused in one line."""
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_yaw.py"
 
@@ -20,9 +20,7 @@ def test_the_yawing_view_turned_back_is_the_still_view() -> None:
     the two bilinear resamplings' blur); turned back the other way, it does not."""
     from wavealt.camera import unturn_yaw
 
-    spec = importlib.util.spec_from_file_location("bench_yaw", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = bench_module("bench_yaw")
     rng = np.random.default_rng(0)
     import scipy.ndimage as ndi
 
@@ -62,9 +60,7 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
     """``--sea second``: the frames are the generator's clip of seed + index, scaled to [0,
     1], with its altitude, frame rate, focal length and velocity over the water; a run of
     one sequence gives the still and the turned rows of that sea."""
-    spec = importlib.util.spec_from_file_location("bench_yaw", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = bench_module("bench_yaw")
     gen = mod._generator()
     sea, truth = mod._second_sea(3000, 2, 10)
     sc = gen.draw_scene(3002)
@@ -88,9 +84,7 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
 def test_the_second_seas_camera_is_tilted_as_the_generator_tilts_it() -> None:
     """``--max-tilt-deg``: the clip is the generator's own with its camera tilted (the
     scene drawn with that radius, the same draw otherwise), and the rows carry the tilt."""
-    spec = importlib.util.spec_from_file_location("bench_yaw", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = bench_module("bench_yaw")
     gen = mod._generator()
     sea, truth = mod._second_sea(3000, 2, 10, max_tilt_deg=8.0)
     sc = gen.draw_scene(3002, max_tilt_deg=8.0)

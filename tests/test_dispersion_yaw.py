@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from benchmodule import bench_module
 from contract import assert_honest
 
 from wavealt.altimetry.dispersion import DispersionAltimeter
@@ -88,14 +89,7 @@ def test_tiles_of_noise_show_no_turn() -> None:
 def _yawing(frames: np.ndarray, rate_dps: float, fps: float, side: int) -> np.ndarray:
     """``benchmarks/bench_yaw.py``'s yawing camera (written from MAVLink's axes, not from
     :func:`wavealt.camera.unturn_yaw`)."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_yaw.py"
-    spec = importlib.util.spec_from_file_location("bench_yaw", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.yawing_view(frames, rate_dps, fps, side)
+    return bench_module("bench_yaw").yawing_view(frames, rate_dps, fps, side)
 
 
 def _sea(frames: int) -> tuple[np.ndarray, dict]:

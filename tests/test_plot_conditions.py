@@ -4,22 +4,17 @@ and summarised; bad arguments refused in one line."""
 from __future__ import annotations
 
 import gzip
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
+from benchmodule import bench_module
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "plot_conditions.py"
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("plot_conditions_mod", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("plot_conditions")
 
 
 def _run_file(path: Path, records: list[dict], zipped: bool = False) -> Path:

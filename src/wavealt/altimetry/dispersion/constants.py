@@ -23,13 +23,13 @@ REFERENCE_FPS = 30.0
 #: ``FULL_CLIP_FRAMES`` frames, aided and blind: the bias the mode groups share and their
 #: spread does not show.  Blind, the velocity re-fitted at every altitude, the profile's
 #: peak lies a little above the truth (the drift trades against the altitude: with the
-#: velocity held at the truth the same windows peak at it; tuning seed 101, 30 frames, 34
+#: velocity held at the truth the same windows peak at it; tuning seed 101, 30 frames, 38
 #: windows within 5 %: +0.37 % against 0.00 %); signed median over the windows within 5 %,
 #: 30 frames: realistic tuning seeds 101 / 202 +0.25 / +0.42 % (clean / glinty), held-out
 #: 149 / 151 +0.32 %, paper 101 / 202 +0.20 / +0.40 %, the second generator +0.0 to
 #: +0.3 %.  The floor is about twice the largest.  The blind floor was 0.02, set when the
-#: peak lay +0.98 % high (before each mode was placed at its waves' centroid); at 0.01 the
-#: 1-s blind trusted share on the tuning seeds rose from 0.45 / 0.49 to 0.54 / 0.57 with no
+#: peak lay +0.98 % high (several sessions of changes since); at 0.01 the 1-s blind
+#: trusted share on the tuning seeds rose from 0.45 / 0.49 to 0.54 / 0.56 with no
 #: trusted window beyond 3 sigma or 5.5 % (``docs/dispersion.md``, forty-seventh session).
 SD_FLOOR_LOG = 0.01
 #: The floor of a blind or prior fit's uncertainty on frames levelled at the tilt their corner

@@ -24,6 +24,7 @@ from wavealt.altimetry.dispersion.constants import (
     BLIND_MAP_KAPPA,
     BLIND_MAP_REACH,
     BLIND_REFINE_MIN_KAPPA,
+    BLIND_SD_FLOOR_LOG,
     BLIND_SEED_PEAKS,
     BLOCK_CODED_MIN_EXCESS,
     CARRIED_CHECKED_MATCH_PX,
@@ -34,7 +35,6 @@ from wavealt.altimetry.dispersion.constants import (
     MIN_SIGNIFICANCE,
     MIN_REFINE_MODES,
     PAIRED_BAND_SD_FRACTION,
-    SD_FLOOR_LOG,
 )
 from wavealt.altimetry.dispersion.profile import paired_band
 from wavealt.altimetry.dispersion.spectra import sharpness_at
@@ -1073,7 +1073,7 @@ def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:
     res = est._judge(est._result(p, fit, 30, 30.0, focal_px))
     sd_log = res.altitude_std_m / res.altitude_m
     assert res.trusted
-    assert sd_log >= max(SD_FLOOR_LOG, PAIRED_BAND_SD_FRACTION * fit["band_log"])
+    assert sd_log >= max(BLIND_SD_FLOOR_LOG, PAIRED_BAND_SD_FRACTION * fit["band_log"])
     flat = est._result(p, {**fit, "band_log": 0.2}, 30, 30.0, focal_px)
     assert flat.altitude_std_m / flat.altitude_m == pytest.approx(PAIRED_BAND_SD_FRACTION * 0.2,
                                                                   rel=1e-12)

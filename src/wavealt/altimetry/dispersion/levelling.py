@@ -19,10 +19,10 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
     ATTITUDE_PRIOR_SD_DEG,
+    BLIND_SD_FLOOR_LOG,
     BLOCK_PERIOD_PX,
     LEVELLED_PROFILE_SD_FLOOR_LOG,
     MAX_ATTITUDE_SIGMA_DEG,
-    SD_FLOOR_LOG,
     TILE_SCATTER_LEVEL,
     WEAK_TILE_SD_LOG,
 )
@@ -167,7 +167,7 @@ class _Level:
         theta = math.acos(min(float(rot[2, 2]), 1.0))
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
         if prior is None or prior[2] > 0:  # a profile's peak on a levelled view: its floor
-            var += LEVELLED_PROFILE_SD_FLOOR_LOG**2 - SD_FLOOR_LOG**2
+            var += LEVELLED_PROFILE_SD_FLOOR_LOG**2 - BLIND_SD_FLOOR_LOG**2
         res.altitude_std_m = res.altitude_m * math.sqrt(
             (res.altitude_std_m / res.altitude_m) ** 2 + var)
         return res, fits, p, focal, signal

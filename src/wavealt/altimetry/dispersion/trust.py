@@ -18,6 +18,7 @@ from wavealt.altimetry.dispersion.attitude import (
 from wavealt.altimetry.dispersion.constants import (
     BAND_CALIBRATED_MIN_FRAMES,
     BAND_SHORT_CLIP_POWER,
+    BLIND_SD_FLOOR_LOG,
     EDGE_FACTOR,
     FULL_CLIP_FRAMES,
     GROUP_PEAK_WITHIN_LOG,
@@ -117,7 +118,8 @@ class _Trust:
             ests = np.array([_parabolic_peak(fit["local"], row) for row in sums])
         # the groups' spread, plus a floor: the bias the clip and the optics leave (0.2-0.4 %
         # on an ideal camera, a few % at 6-15 m rendered; bench_dispersion.py), short clips more
-        floor = SD_FLOOR_LOG * max(1.0, FULL_CLIP_FRAMES / t) ** 3
+        floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
+                 * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (the band's)
         spread = weighted_spread(ests, curv if profile else None, logh)
         # the band's part of a standard deviation grows on shorter clips

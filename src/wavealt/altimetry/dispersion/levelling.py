@@ -19,9 +19,7 @@ from wavealt.altimetry.dispersion.constants import (
     ATTITUDE_LEVEL,
     ATTITUDE_PASSES,
     ATTITUDE_PRIOR_SD_DEG,
-    BLIND_SD_FLOOR_LOG,
     BLOCK_PERIOD_PX,
-    LEVELLED_PROFILE_SD_FLOOR_LOG,
     MAX_ATTITUDE_SIGMA_DEG,
     TILE_SCATTER_LEVEL,
     WEAK_TILE_SD_LOG,
@@ -106,9 +104,7 @@ class _Level:
         tilt (:func:`.attitude.without_odd_tile`).  The tilt's uncertainty joins the levelled
         fit's: the focal length of the level view is ``f cos(tilt)``, and where the tiles
         are not placed and weighted symmetrically their mean moves with the tilt
-        (:meth:`.attitude.TiltFit.extra_var_log`).  A blind or prior fit's profile on the
-        levelled view has a floor of its own, ``LEVELLED_PROFILE_SD_FLOOR_LOG``: the residual
-        tilt and the resampling leave it reading higher than on a level camera.
+        (:meth:`.attitude.TiltFit.extra_var_log`).
         The tilted model is kept only where the levelled view's tiles then read one scale
         (the scatter of those that hold the shell within their noise at ``ATTITUDE_LEVEL``,
         :func:`~.trust.tile_scatter`) and are placed to see the tilt made (at least two,
@@ -166,8 +162,6 @@ class _Level:
         last = fit_tilt(_doubted(seen, fits), focal) or fit_tilt(*made_from) or made
         theta = math.acos(min(float(rot[2, 2]), 1.0))
         var = last.extra_var_log() + math.tan(theta) ** 2 * last.tilt_var_rad()
-        if prior is None or prior[2] > 0:  # a profile's peak on a levelled view: its floor
-            var += LEVELLED_PROFILE_SD_FLOOR_LOG**2 - BLIND_SD_FLOOR_LOG**2
         res.altitude_std_m = res.altitude_m * math.sqrt(
             (res.altitude_std_m / res.altitude_m) ** 2 + var)
         return res, fits, p, focal, signal

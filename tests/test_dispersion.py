@@ -1589,3 +1589,31 @@ def test_the_shares_exponent_falls_with_the_clips_length_beyond_the_reference() 
     assert sharpness_at(5.0, 2 * ref) == pytest.approx(5.0 * 0.5 ** SHARPNESS_FRAMES_POWER)
     assert sharpness_at(5.0, 3600) == 1.0
     assert sharpness_at(1.0, 2 * ref) == 1.0
+
+
+def test_the_highest_points_velocity_raises_a_stretch_of_the_profile_that_held_a_poor_one() -> None:
+    """The blind profile is the score maximised over the velocity at each altitude.  Where
+    the continuation held a poor velocity over a stretch of altitudes (here: none at all),
+    the velocity of the profile's highest point, carried outward from it, raises that
+    stretch (:meth:`_carry_outward`): no point falls, the stretch rises to the ridge, and
+    the profile peaks at the truth instead of stepping up at the end of the stretch."""
+    h, fps = 4.0, 30.0
+    frames, focal_px, camera_v = _linear_frames(h, 8.0, 0.8, 60.0, size=128, frames=30)
+    est = DispersionAltimeter(dispersion="gravity")
+    p = est._periodogram(frames)
+    modes = np.arange(p["kappa"].size)
+    grid = np.log(h) + np.arange(-6, 7) * 0.05
+    top = grid.size - 1  # the shell's velocity known only at the highest altitude
+    # the camera's velocity over the water, in the table's px/frame at each altitude
+    truth = np.array(camera_v) * focal_px / (fps * np.exp(grid))[:, None]
+    still = [est._best_velocity(p, fps, focal_px, float(g), np.zeros(2), modes, 0.02)
+             for g in grid]
+    scan = np.array([v for v, _ in still])
+    path = np.array([u for _, u in still])
+    scan[top], path[top] = est._best_velocity(p, fps, focal_px, float(grid[top]), truth[top],
+                                              modes, 0.02)
+    before = scan.copy()
+    est._carry_outward(p, fps, focal_px, grid, scan, path, modes, [(top, -1)])
+    assert np.all(scan >= before)
+    assert abs(grid[int(np.argmax(scan))] - np.log(h)) <= 0.05 + 1e-9
+    assert np.allclose(path[6], truth[6], atol=0.1)

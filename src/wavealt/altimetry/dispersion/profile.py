@@ -207,6 +207,11 @@ class _Profile(_VelocityMap):
         if pinned:
             self._seed_profile(p, fps, focal_px, grid, scan, path, sub)
         self._fill_dips(p, fps, focal_px, grid, scan, path, sub)
+        # the highest point's velocity, followed both ways while it raises the profile: the
+        # continuation from the start can hold a poor velocity over a stretch of altitudes,
+        # and the profile then steps up where it finds the shell's instead of peaking
+        top = int(np.argmax(scan))
+        self._carry_outward(p, fps, focal_px, grid, scan, path, sub, [(top, -1), (top, 1)])
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,
                                                           prior)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
@@ -259,7 +264,16 @@ class _Profile(_VelocityMap):
             if val > scan[j] + BLIND_SEED_MIN_Z * noise:
                 scan[j], path[j] = val, u
                 raised += [(j, -1), (j, 1)]
-        while raised:  # carried outward along the ridge while it raises the profile
+        self._carry_outward(p, fps, focal_px, grid, scan, path, modes, raised)
+
+    def _carry_outward(self, p: dict[str, Any], fps: float, focal_px: float,
+                       grid: np.ndarray, scan: np.ndarray, path: np.ndarray,
+                       modes: np.ndarray | None, starts: list[tuple[int, int]]) -> None:
+        """Carry, in place, the velocity of each profile point ``j`` of ``starts`` (``(j,
+        way)``, ``way`` -1 or +1) outward along the profile in that direction, searched again
+        at each next point from it (the same velocity in m/s), while it raises the profile."""
+        raised = list(starts)
+        while raised:
             j, way = raised.pop()
             nb = j + way
             # the same velocity in m/s: px/frame scales as 1 / altitude

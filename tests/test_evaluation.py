@@ -270,7 +270,7 @@ def test_a_dataset_coded_with_h264_is_judged_as_a_video_file_is(tmp_path) -> Non
     from wavealt.evaluation import DispersionEstimator
     from wavealt.sim.config import preset_config
 
-    # enough sequences that the altimeter trusts some of them on its own (1 of 16 windows)
+    # enough sequences that the altimeter trusts some of them on its own (2 of 16 windows)
     cfg = preset_config("realistic", sequences=8, size=128, frames=30, altitude_m=(3.0, 3.0),
                         wind_speed_mps=(8.0, 8.0), compression="h264")
     assert simulated_codec(cfg) == "h264"

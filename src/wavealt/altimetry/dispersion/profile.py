@@ -207,11 +207,14 @@ class _Profile(_VelocityMap):
         if pinned:
             self._seed_profile(p, fps, focal_px, grid, scan, path, sub)
         self._fill_dips(p, fps, focal_px, grid, scan, path, sub)
-        # the highest point's velocity, followed both ways while it raises the profile: the
-        # continuation from the start can hold a poor velocity over a stretch of altitudes,
-        # and the profile then steps up where it finds the shell's instead of peaking
+        # the highest point's velocity, followed both ways while it raises the profile by
+        # more than its noise: the continuation from the start can hold a poor velocity over
+        # a stretch of altitudes, and the profile then steps up where it finds the shell's
+        # instead of peaking (a raise within the noise is another local maximum of the same
+        # ridge, and following it would search the whole profile again)
         top = int(np.argmax(scan))
-        self._carry_outward(p, fps, focal_px, grid, scan, path, sub, [(top, -1), (top, 1)])
+        self._carry_outward(p, fps, focal_px, grid, scan, path, sub, [(top, -1), (top, 1)],
+                            null_sd(p, sub))
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,
                                                           prior)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
@@ -268,10 +271,12 @@ class _Profile(_VelocityMap):
 
     def _carry_outward(self, p: dict[str, Any], fps: float, focal_px: float,
                        grid: np.ndarray, scan: np.ndarray, path: np.ndarray,
-                       modes: np.ndarray | None, starts: list[tuple[int, int]]) -> None:
+                       modes: np.ndarray | None, starts: list[tuple[int, int]],
+                       margin: float = 0.0) -> None:
         """Carry, in place, the velocity of each profile point ``j`` of ``starts`` (``(j,
         way)``, ``way`` -1 or +1) outward along the profile in that direction, searched again
-        at each next point from it (the same velocity in m/s), while it raises the profile."""
+        at each next point from it (the same velocity in m/s), while it raises the profile
+        (by more than ``margin`` of the score, where given)."""
         raised = list(starts)
         while raised:
             j, way = raised.pop()
@@ -279,16 +284,18 @@ class _Profile(_VelocityMap):
             # the same velocity in m/s: px/frame scales as 1 / altitude
             if 0 <= nb < grid.size and self._search_again(
                     p, fps, focal_px, grid, scan, path, modes, nb,
-                    path[j] * math.exp(grid[j] - grid[nb])):
+                    path[j] * math.exp(grid[j] - grid[nb]), margin):
                 raised.append((nb, way))
 
     def _search_again(self, p: dict[str, Any], fps: float, focal_px: float,
                       grid: np.ndarray, scan: np.ndarray, path: np.ndarray,
-                      modes: np.ndarray | None, j: int, u0: np.ndarray) -> bool:
+                      modes: np.ndarray | None, j: int, u0: np.ndarray,
+                      margin: float = 0.0) -> bool:
         """Search the velocity of profile point ``j`` again from ``u0`` and keep it, in
-        place, where it scores more than the point holds; whether it did."""
+        place, where it scores more than the point holds (by more than ``margin``); whether
+        it did."""
         val, u = self._best_velocity(p, fps, focal_px, float(grid[j]), u0, modes, 0.02)
-        if val > scan[j] * (1.0 + 1e-6):
+        if val > scan[j] * (1.0 + 1e-6) + margin:
             scan[j], path[j] = val, u
             return True
         return False

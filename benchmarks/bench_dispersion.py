@@ -647,31 +647,27 @@ def read_windows(path: Path) -> list[dict[str, Any]]:
     as ``docs/results`` keeps the large ones) as records: the row, the truth, the estimate,
     its standard deviation and trust; a ``ValueError`` naming what is missing for a file
     that is not one."""
+    opener = gzip.open if path.suffix == ".gz" else open
     try:
-        return _read_windows(path)
+        with opener(path, "rt", newline="") as fh:
+            reader = csv.DictReader(fh)
+            need = {"row", "status", "altitude_m", "est_altitude_m", "est_std_m", "trusted"}
+            missing = sorted(need - set(reader.fieldnames or ()))
+            if missing:
+                raise ValueError(f"{path} is not a bench_dispersion window CSV (no {missing})")
+            recs = []
+            for line, r in enumerate(reader, start=2):
+                try:
+                    recs.append({"row": r["row"], "status": r["status"],
+                                 "altitude_m": float(r["altitude_m"]),
+                                 "est_altitude_m": float(r["est_altitude_m"] or "nan"),
+                                 "est_std_m": float(r["est_std_m"] or "nan"),
+                                 "trusted": r["trusted"] == "True"})
+                except ValueError:
+                    msg = f"{path}, line {line}: not a number where one belongs"
+                    raise ValueError(msg) from None
     except (gzip.BadGzipFile, EOFError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path} is not a readable CSV ({exc.__class__.__name__})") from None
-
-
-def _read_windows(path: Path) -> list[dict[str, Any]]:
-    """:func:`read_windows`, the file read."""
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt", newline="") as fh:
-        reader = csv.DictReader(fh)
-        need = {"row", "status", "altitude_m", "est_altitude_m", "est_std_m", "trusted"}
-        missing = sorted(need - set(reader.fieldnames or ()))
-        if missing:
-            raise ValueError(f"{path} is not a bench_dispersion window CSV (no {missing})")
-        recs = []
-        for line, r in enumerate(reader, start=2):
-            try:
-                recs.append({"row": r["row"], "status": r["status"],
-                             "altitude_m": float(r["altitude_m"]),
-                             "est_altitude_m": float(r["est_altitude_m"] or "nan"),
-                             "est_std_m": float(r["est_std_m"] or "nan"),
-                             "trusted": r["trusted"] == "True"})
-            except ValueError:
-                raise ValueError(f"{path}, line {line}: not a number where one belongs") from None
     if not recs:
         raise ValueError(f"{path} holds no windows")
     return recs

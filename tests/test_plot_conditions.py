@@ -10,8 +10,6 @@ from pathlib import Path
 import pytest
 from benchmodule import bench_module
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "plot_conditions.py"
-
 
 def _module():
     return bench_module("plot_conditions")

@@ -212,9 +212,10 @@ class _Profile(_VelocityMap):
         # a stretch of altitudes, and the profile then steps up where it finds the shell's
         # instead of peaking (a raise within the noise is another local maximum of the same
         # ridge, and following it would search the whole profile again)
+        noise = null_sd(p, sub)  # the profile's noise: its score's sd under random steps
         top = int(np.argmax(scan))
         self._carry_outward(p, fps, focal_px, grid, scan, path, sub, [(top, -1), (top, 1)],
-                            null_sd(p, sub))
+                            noise)
         i, prominence, interior = self._significant_peak(p, fps, focal_px, scan, grid, path,
                                                           prior)
         local = grid[i] + np.linspace(-1.0, 1.0, 5) * step
@@ -232,8 +233,6 @@ class _Profile(_VelocityMap):
         u = np.array([np.interp(logh, local, us[:, 0]), np.interp(logh, local, us[:, 1])])
         # every mode along the whole ridge: the mode groups' peaks there give the uncertainty
         ridge = self._mode_values(p, fps, focal_px, grid, path[:, 0], path[:, 1])
-        # the profile's noise: the sd of its score under random phase steps
-        noise = null_sd(p, sub)
         return {"logh": logh, "u": u, "z": significance(p, vals), "scan": scan,
                 "interior": interior, "prominence": prominence,
                 "prominence_z": prominence / max(noise, 1e-30),

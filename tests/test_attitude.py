@@ -196,6 +196,34 @@ def test_a_tile_too_imprecise_to_tell_a_tilt_measures_nothing() -> None:
     assert unmeasured_tilt_var_log([*pair, (*c[0], 0.0, 0.02)], focal, s) == 0.0
 
 
+def test_the_tiles_measure_a_tilt_at_the_information_of_their_errors(monkeypatch) -> None:
+    """A tile's sigma counts toward the tilt it measures at ``TILE_INFORMATION_SD_SCALE`` of
+    itself (its errors are heavy-tailed about a narrower bulk): tiles at sigma s leave the
+    variance that tiles at the scaled sigma leave when taken at their own; a third tile at
+    15 % beside a precise pair measures the tilt across their row, which at its own sigma
+    it would not (the prior knows it better)."""
+    import wavealt.altimetry.dispersion.attitude as attitude
+
+    focal, s = 223.0, math.sin(math.radians(7.5))
+    c = tile_centres((256, 256), (96, 96))
+    tile = (96, 96)
+    pair = [(*c[2], 0.0, 0.03), (*c[3], 0.0, 0.02)]
+    third = [*pair, (*c[0], 0.04, 0.15)]
+    scale = attitude.TILE_INFORMATION_SD_SCALE
+    assert 0.0 < scale < 1.0
+    scaled = attitude.informative(third)
+    assert [t[3] for t in scaled] == pytest.approx([scale * t[3] for t in third])
+    assert unmeasured_tilt_var_log(third, focal, s) == 0.0
+    unlevelled = unlevelled_tilt_var_log(third, focal, s, tile)
+    monkeypatch.setattr(attitude, "TILE_INFORMATION_SD_SCALE", 1.0)
+    assert unmeasured_tilt_var_log(scaled, focal, s) == 0.0
+    assert unlevelled_tilt_var_log(scaled, focal, s, tile) == pytest.approx(unlevelled,
+                                                                            rel=1e-12)
+    # at its own sigma the third tile leaves the tilt across the pair's row unmeasured
+    assert unmeasured_tilt_var_log(third, focal, s) == pytest.approx(
+        unmeasured_tilt_var_log(pair, focal, s), rel=0.1)
+
+
 def test_the_unmeasured_tilt_is_read_where_the_precise_tiles_lie() -> None:
     """Unequal sigmas move the centroid toward the precise tile: a diagonal pair leaves the
     tilt across it unmeasured once one tile outweighs the other."""

@@ -28,7 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import gammainccinv
 
-from wavealt.altimetry.dispersion.constants import TILE_AGREEMENT_SIGMAS, TILE_SCATTER_LEVEL
+from wavealt.altimetry.dispersion.constants import (
+    TILE_AGREEMENT_SIGMAS,
+    TILE_INFORMATION_SD_SCALE,
+    TILE_SCATTER_LEVEL,
+)
 
 #: Gauss-Newton steps of the tilted fit: from level, four tiles and tilts within 30
 #: degrees converge to 1e-9 in three to five.
@@ -178,6 +182,14 @@ def tile_centres(shape: tuple[int, int], tile: tuple[int, int]) -> list[tuple[fl
     return [(x, y), (-x, y), (x, -y), (-x, -y)]
 
 
+def informative(fits: list[tuple[float, float, float, float]]
+                ) -> list[tuple[float, float, float, float]]:
+    """The tiles ``fits`` (``(x, y, log h, sd_log)``) with each sigma scaled to the
+    information about a tilt that their heavy-tailed errors carry
+    (``TILE_INFORMATION_SD_SCALE``, which says how it was measured)."""
+    return [(x, y, lg, sd * TILE_INFORMATION_SD_SCALE) for x, y, lg, sd in fits]
+
+
 def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal_px: float,
                             prior_sd: float,
                             centres: list[tuple[float, float]] | tuple = ()) -> float:
@@ -199,12 +211,13 @@ def unmeasured_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     tiles (never collinear); a tile too imprecise to tell a tilt within the prior measures
     nothing.  Where no tile holds the waves alone, nothing measures the tilt, nor says
     where in the frame the fit reads: it is taken to read at the farthest of the tiles'
-    ``centres``, as one tile there (nothing without them).
+    ``centres``, as one tile there (nothing without them).  The tiles' sigma is taken at
+    the information of their errors' distribution (:func:`informative`).
     """
     if not fits:
         r2 = max((x * x + y * y for x, y in centres), default=0.0)
         return 2.25 * prior_sd**2 * r2 / focal_px**2
-    info, centre = _tilt_information(fits, focal_px)
+    info, centre = _tilt_information(informative(fits), focal_px)
     value, vec = np.linalg.eigh(info)
     free = vec[:, value * prior_sd**2 < 1.0]
     part = free.T @ centre
@@ -230,9 +243,10 @@ def unlevelled_tilt_var_log(fits: list[tuple[float, float, float, float]], focal
     to the prior ``N(0, prior_sd^2)`` on each of ``a`` and ``b``: mean ``m``, covariance
     ``V``.  The variance is ``2.25 tr((m m^T + V) G)``; along a direction the tiles do not
     measure, ``V`` is the prior's and the centroid's part is
-    :func:`unmeasured_tilt_var_log`'s.
+    :func:`unmeasured_tilt_var_log`'s.  The tiles' sigma is taken at the information of
+    their errors' distribution (:func:`informative`).
     """
-    kept = without_odd_tile(fits, focal_px, TILE_SCATTER_LEVEL)
+    kept = without_odd_tile(informative(fits), focal_px, TILE_SCATTER_LEVEL)
     tilt = fit_tilt(kept, focal_px)
     if tilt is None:
         return None

@@ -35,6 +35,7 @@ QUICK_ARGS: dict[str, list[str]] = {
     "resample": ["--clips", "4"],
     "scale": ["--sequences", "4", "--size", "64", "--repeats", "1"],
     "simulate": ["--sequences", "4"],
+    "tiles": ["--sequences", "3", "--seeds", "101", "--no-cache"],
 }
 
 

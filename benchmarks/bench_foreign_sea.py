@@ -681,6 +681,13 @@ def _altimeter(water_depth_m: float | None = None) -> Any:
                                attitude_sigma_deg=ATTITUDE_SIGMA_DEG, **kw)
 
 
+def mode_velocity(sc: Scene, prior_sigma: float = PRIOR_SIGMA_MPS) -> dict[str, dict]:
+    """Per mode, what the altimeter is told of clip ``sc``'s velocity: nothing (blind), the
+    camera's velocity over the water (exact), or the drift with ``prior_sigma`` (prior)."""
+    return {"blind": {}, "exact": {"velocity_mps": sc.over_water},
+            "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
+
+
 def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   prior_sigma: float = PRIOR_SIGMA_MPS, max_current: float = 1.0,
                   max_tilt_deg: float = 0.0, sky: str = "gradient",
@@ -712,8 +719,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
                                   "ae_rate", "ae_jitter", "depth_m", "lens_k1")}
     base["saturated_share"] = saturated
-    velocity = {"blind": {}, "exact": {"velocity_mps": sc.over_water},
-                "prior": {"velocity_mps": sc.drift, "velocity_sigma_mps": prior_sigma}}
+    velocity = mode_velocity(sc, prior_sigma)
     records = []
     for row in rows:
         mode, n = ROWS[row]

@@ -100,18 +100,15 @@ def window_z(tiles: tuple[list, float] | None, truth_m: float) -> tuple[list, li
             [(lg - math.log(fit_m)) / sd for _, _, lg, sd in fits])
 
 
-def realistic_rows(rows: list[str], seeds: list[int], sequences: int,
+def realistic_rows(rows: list[Any], seeds: list[int], sequences: int,
                    use_cache: bool = True) -> dict[str, Any]:
-    """Per row of ``bench_dispersion.py``: the tiles' ``z`` over its windows (its frames'
-    cache read and written where ``use_cache``)."""
+    """Per row of ``bench_dispersion.py`` (its ``RowSpec`` entries): the tiles' ``z`` over
+    its windows (its frames' cache read and written where ``use_cache``)."""
     import bench_dispersion as bench
 
     out = {}
-    for name in rows:
-        row = bench.row_of(name)
-        if row is None:
-            known = ", ".join(r.name for r in bench.ROWS)
-            raise SystemExit(f"error: unknown row {name!r} (rows: {known}, or PRESET-FRAMES-MODE)")
+    for row in rows:
+        name = row.name
         est = _recorder()(dispersion=row.dispersion)
         vs_truth, vs_fit, windows = [], [], 0
         for seed in seeds:
@@ -147,9 +144,7 @@ def second_rows(rows: list[str], seed: int, clips: int) -> dict[str, Any]:
         focal = gen.frame_focal_px(sc)
         for name in rows:
             mode, n = gen.ROWS[name]
-            kw = {"exact": {"velocity_mps": sc.over_water}, "blind": {},
-                  "prior": {"velocity_mps": sc.drift,
-                            "velocity_sigma_mps": gen.PRIOR_SIGMA_MPS}}[mode]
+            kw = gen.mode_velocity(sc)[mode]
             a_all, b_all, w = got[name]
             for start in range(0, gen.FRAMES - n + 1, n):
                 try:
@@ -184,12 +179,11 @@ def main() -> int:
         raise SystemExit(f"error: {args.out} exists; give another --out (nothing written)")
     t0 = time.perf_counter()
     if args.sea == "realistic":
-        rows = (args.rows or "realistic-10-exact,realistic-30-blind").split(",")
-        try:
-            seeds = [int(s) for s in args.seeds.split(",")]
-        except ValueError:
-            raise SystemExit(f"error: --seeds must be integers; got {args.seeds!r}") from None
-        result = realistic_rows(rows, seeds, args.sequences, not args.no_cache)
+        import bench_dispersion
+
+        args.rows = args.rows or "realistic-10-exact,realistic-30-blind"
+        bench_dispersion.known_rows_and_seeds(ap, args)  # the same one-line errors
+        result = realistic_rows(args.rows, args.seeds, args.sequences, not args.no_cache)
     else:
         rows = (args.rows or "exact10,blind30").split(",")
         result = second_rows(rows, args.seed, args.clips)
@@ -203,7 +197,9 @@ def main() -> int:
     text = json.dumps(report, indent=2)
     print(text)
     if args.out is not None:
-        args.out.write_text(text + "\n")
+        from wavealt.io import atomic_write_text
+
+        atomic_write_text(args.out, text + "\n")
     return 0
 
 

@@ -49,7 +49,8 @@ def test_an_unknown_row_or_an_existing_out_is_a_one_line_error(tmp_path) -> None
     run = subprocess.run([sys.executable, script, "--rows", "realistic-10-nope"],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode != 0
-    assert run.stderr.strip().splitlines()[-1].startswith("error: unknown row")
+    assert run.stderr.strip().splitlines()[-1].startswith(
+        "bench_tiles.py: error: unknown row(s) realistic-10-nope;")
     out = tmp_path / "kept.json"
     out.write_text("{}")
     run = subprocess.run([sys.executable, script, "--out", str(out)],

@@ -8,8 +8,6 @@ corrected, never confidently wrong.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from contract import assert_honest
@@ -17,7 +15,7 @@ from contract import assert_honest
 from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
 from wavealt.altimetry.dispersion.constants import ATTITUDE_PRIOR_SD_DEG, TILE_SCATTER_LEVEL
 from wavealt.altimetry.dispersion.search import weighted_spread
-from wavealt.altimetry.dispersion.trust import centre_offset, tile_scatter
+from wavealt.altimetry.dispersion.trust import tile_scatter
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
 
@@ -299,54 +297,6 @@ def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:
     roll, pitch = tilted.attitude_deg
     assert roll < -5.0 and abs(pitch) < 2.0, tilted
     assert 4.0 < tilted.altitude_m < 5.2, tilted
-
-
-@pytest.mark.parametrize("outer", [4.6, 3.5])
-def test_a_frame_whose_centre_shows_another_scale_than_its_corners_is_not_trusted(
-        outer: float) -> None:
-    """A lens that distorts changes the image scale with the distance from the frame's
-    centre: its four corner tiles read one scale and no tilt, and the fit reads theirs.  A
-    frame whose centre sees the sea from 4 m and the rest from ``outer`` (a barrel or a
-    pincushion lens, exaggerated) is not trusted, exact or blind, and the reason names the
-    lens and how far the centre reads from the corners; the 4-m frame alone is trusted."""
-    near, v, focal = _slope_image(4.0, 3, frames=30)
-    far, _, _ = _slope_image(outer, 3, frames=30)
-    kw = {"fps": 30.0, "focal_px": focal}
-    est = DispersionAltimeter(dispersion="gravity")
-    whole = est.estimate(near, velocity_mps=v, **kw)
-    assert whole.trusted, whole
-    assert_honest(whole, 4.0)
-    lens = far.copy()
-    lens[:, 32:96, 32:96] = near[:, 32:96, 32:96]
-    for res in (est.estimate(lens, velocity_mps=v, **kw), est.estimate(lens, **kw)):
-        assert not res.trusted, res
-        assert "a lens that distorts: give its calibration" in res.reason
-        said = float(res.reason.split("reads ")[1].split(" %")[0])
-        assert said == pytest.approx(100 * (4.0 / outer - 1.0), abs=3.0), res.reason
-        assert_honest(res, 4.0)
-
-
-def test_the_centre_tile_counts_against_the_corners_beyond_their_noise() -> None:
-    """:func:`centre_offset`: a centre that reads the corners' scale within the noise of
-    the difference counts nothing; one far off counts the part of the difference beyond
-    that noise, with the difference's sign, the same wherever the scale lies; corners that
-    scatter among themselves make their mean less certain, and the same centre counts
-    less."""
-    corners = [(-80.0, -80.0, 1.5, 0.02), (80.0, -80.0, 1.5, 0.02), (-80.0, 80.0, 1.5, 0.02),
-               (80.0, 80.0, 1.5, 0.02)]
-    s = math.hypot(0.01, 0.03)  # the corners' mean and the centre
-    assert centre_offset(corners, (0.0, 0.0, 1.5 + 0.5 * s, 0.03)) == (
-        0.0, pytest.approx(0.5 * s), pytest.approx(s))
-    off, d, sd = centre_offset(corners, (0.0, 0.0, 1.4, 0.03))
-    assert (d, sd) == (pytest.approx(-0.1), pytest.approx(s))
-    assert off == pytest.approx(-math.sqrt(0.1**2 - s**2))
-    shifted = [(x, y, lg + 2.0, sd_) for x, y, lg, sd_ in corners]
-    assert centre_offset(shifted, (0.0, 0.0, 3.6, 0.03))[0] == pytest.approx(-off)
-    scattered = [(x, y, lg + dl, sd_) for (x, y, lg, sd_), dl
-                 in zip(corners, (-0.06, 0.06, 0.06, -0.06))]
-    assert tile_scatter([(f[2], f[3]) for f in scattered]) > 0.0
-    wide = centre_offset(scattered, (0.0, 0.0, 1.4, 0.03))
-    assert wide[1] == pytest.approx(-0.1) and wide[2] > s and abs(wide[0]) < abs(off)
 
 
 @pytest.mark.parametrize("side", ["top", "left"])

@@ -109,11 +109,7 @@ toward the other side (nor any tilt where no tile holds them alone), and with th
 unknown a prior tilt's part there joins the uncertainty: the prior is the caller's
 (``attitude_sigma_deg``, a gimbal's error; by default a tilt anywhere the tiles can measure),
 and a levelled view is kept only where its tiles measure the tilt better than the prior.
-The fit must also read what those tiles read: it is made of them.  The corners lie at one
-distance from the frame's centre, so a lens whose distortion changes the scale with that
-distance moves all four alike; a tile at the centre, fitted as they are, reads the
-pinhole's scale, and where it holds the shell the part of its difference from the corners
-beyond their noise joins the uncertainty (:func:`.trust.centre_offset`).
+The fit must also read what those tiles read: it is made of them.
 
 A camera that turns about its axis carries the water past each corner tile its own way.  The
 difference of two tiles' phase steps on a mode holds the turn and nothing of the waves

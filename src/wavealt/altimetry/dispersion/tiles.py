@@ -20,7 +20,7 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.signal import normal_scores
-from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners
+from wavealt.altimetry.dispersion.spectra import _corners
 from wavealt.altimetry.dispersion.trust import _corner_series
 
 #: A corner tile's fit: centre ``(x, y)`` px from the frame's centre, log altitude, its sigma.
@@ -53,10 +53,20 @@ class _Tiles:
         on the same corner tiles, whose mode series the tiles take where they hold the
         tile's modes, instead of transforming the tiles again (the same bits)."""
         t = signal.shape[0]
-        near = self._near(res, whole_range)
+        lo, hi = self.altitude_range_m
+        near = copy.copy(self)
+        if not whole_range:
+            near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
+                                     min(hi, res.altitude_m * TILE_RANGE_FACTOR))
+        near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
+                                                          / near.altitude_range_m[0])
+                                   / math.log(hi / lo)))
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
-        n_fit = self._fit_modes(p, tiles[0].shape[1:])
+        # a tile's significance bar is the fit's for its share of the fit's modes (those of
+        # the corner tiles' plane, ``max_modes`` of it, where ``p`` is not given)
+        n_fit = (p["kappa"].size if p is not None
+                 else self._plane(*tiles[0].shape[1:])[4].size)
         series = _corner_series(p, tiles[0].shape[1:])
         fits, weak = [], []
         for i, (tile, (x, y)) in enumerate(zip(tiles, centres)):
@@ -66,10 +76,15 @@ class _Tiles:
                     else {"corners": False, "frames": t, "_series": series[i:i + 1],
                           "_series_modes": p["_series_modes"],
                           "_power": None if p.get("_powers") is None else p["_powers"][i]})
-            fitted = self._tile_fit(near, tile, like, fps, focal_px, res, n_fit)
-            if fitted is None:
+            # a quarter of the modes (a quarter of the corners' data); the square kept in the
+            # table (``docs/dispersion.md``, twenty-seventh session); scored as the corners
+            q = self._fit_periodogram(tile if like else normal_scores(tile), corners=False,
+                                      like=like, continuum=False,
+                                      max_modes=max(self.max_modes // 4, 8))
+            if q is None:
                 continue
-            r, bar = fitted
+            r = near._aided(q, t, fps, focal_px, res.camera_velocity_mps)
+            bar = math.sqrt(q["kappa"].size / n_fit)
             fit = (x, y, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m)
             if self._holds_shell(r, bar):
                 fits.append(fit)
@@ -77,59 +92,6 @@ class _Tiles:
                   and abs(math.log(r.altitude_m / res.altitude_m)) <= math.log(TILT_REACH_FACTOR)):
                 weak.append(fit)
         return fits, weak
-
-    def _centre_fit(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                    focal_px: float, p: dict[str, Any] | None = None) -> Tile | None:
-        """The tile at the centre of ``signal``'s frames, of the corner tiles' size, fitted
-        alone as they are (:meth:`_corner_fits`): ``(0, 0, log altitude, sd_log)`` where it
-        holds a shell's peak, else None.  The corner tiles lie at the same distance from the
-        frame's centre, so a scale that changes with that distance (a lens's radial
-        distortion) moves them alike and only the centre shows it."""
-        t, h0, w0 = signal.shape
-        h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
-        y0, x0 = (h0 - h) // 2, (w0 - w) // 2
-        fitted = self._tile_fit(self._near(res, False), signal[:, y0:y0 + h, x0:x0 + w], None,
-                                fps, focal_px, res, self._fit_modes(p, (h, w)))
-        if fitted is None or not self._holds_shell(*fitted):
-            return None
-        r = fitted[0]
-        return 0.0, 0.0, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m
-
-    def _near(self, res: DispersionResult, whole_range: bool) -> Any:
-        """This altimeter searching within ``TILE_RANGE_FACTOR`` of ``res``'s altitude (a tilt
-        within the tool's reach moves a tile's scale by far less, and a peak beyond is not
-        the shell), or over the whole range (``whole_range``), as finely."""
-        lo, hi = self.altitude_range_m
-        near = copy.copy(self)
-        if not whole_range:
-            near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
-                                     min(hi, res.altitude_m * TILE_RANGE_FACTOR))
-        near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
-                                                          / near.altitude_range_m[0])
-                                   / math.log(hi / lo)))
-        return near
-
-    def _fit_modes(self, p: dict[str, Any] | None, tile: tuple[int, int]) -> int:
-        """The modes of the fit a tile's significance bar is scaled from: those of its
-        periodogram ``p``, else of the corner tiles' plane (``max_modes`` of it) of tiles
-        ``tile`` ``(h, w)``."""
-        return p["kappa"].size if p is not None else self._plane(*tile)[4].size
-
-    def _tile_fit(self, near: Any, tile: np.ndarray, like: dict[str, Any] | None, fps: float,
-                  focal_px: float, res: DispersionResult, n_fit: int
-                  ) -> tuple[DispersionResult, float] | None:
-        """One tile's frames ``tile`` (or its mode series ``like``) fitted by ``near``'s aided
-        search at ``res``'s velocity (m/s), and its significance bar's part of the fit's:
-        a tile's bar is the fit's for its share of the fit's ``n_fit`` modes.  A quarter of
-        the modes (a quarter of the corners' data); the square kept in the table
-        (``docs/dispersion.md``, twenty-seventh session); scored as the corners."""
-        q = self._fit_periodogram(tile if like else normal_scores(tile), corners=False,
-                                  like=like, continuum=False,
-                                  max_modes=max(self.max_modes // 4, 8))
-        if q is None:
-            return None
-        r = near._aided(q, tile.shape[0], fps, focal_px, res.camera_velocity_mps)
-        return r, math.sqrt(q["kappa"].size / n_fit)
 
     @staticmethod
     def _holds_shell(res: DispersionResult, scale: float = 1.0, prominent: bool = True) -> bool:

@@ -333,38 +333,6 @@ class _Trust:
                 f"({worst:.1f} sigma): the image scale is not one over the frame (a tilted "
                 f"camera: give its attitude)")
 
-    def _centre_verdict(self, fits: list[tuple[float, float, float, float]],
-                        res: DispersionResult, signal: np.ndarray, fps: float,
-                        focal_px: float, p: dict[str, Any] | None) -> str | None:
-        """Why a fit that passes every other test is not trusted because the centre of the
-        frame reads another scale than its corner tiles ``fits`` (:meth:`_corner_fits` of
-        ``signal``, periodogram ``p``), None where it does not; the difference beyond their
-        noise (:func:`centre_offset`) joins the fit's uncertainty, in place.
-
-        The corner tiles lie at one distance from the frame's centre, and the fit reads
-        their scale (the periodogram is theirs).  A lens's radial distortion changes the
-        scale with that distance: a barrel lens (OpenCV k1 = -0.1) shrinks the corners'
-        scale by 5-10 %, alike in all four, which read one scale and no tilt, and the fit
-        reads 5-17 % high at 1-3 % uncertainty (held out, the independent generator's seas:
-        21 of 160 windows trusted more than 10 % off, ``docs/dispersion.md``, forty-ninth
-        session).  The centre tile (:meth:`_centre_fit`) sees the scale of a pinhole; where
-        it holds the shell, the fit is off by as much as the centre and the corners differ
-        beyond their noise."""
-        if not fits:
-            return None
-        centre = self._centre_fit(signal, res, fps, focal_px, p)
-        if centre is None:
-            return None
-        off, d, s = centre_offset(fits, centre)
-        if off == 0.0:
-            return None
-        _widen(res, off)
-        if self._distrust(res) is None:
-            return None
-        return (f"the frame's centre reads {100 * math.expm1(d):+.0f} % from its corner tiles "
-                f"({abs(d) / s:.1f} sigma): the image scale changes from the centre out (a "
-                f"lens that distorts: give its calibration)")
-
     def _unmeasured_tilt(self, fits: list[tuple[float, float, float, float]],
                          res: DispersionResult, focal_px: float,
                          shape: tuple[int, int]) -> str | None:
@@ -446,31 +414,6 @@ def _corner_series(p: dict[str, Any] | None, tile: tuple[int, int]) -> np.ndarra
             and tuple(p["tile"]) == tuple(tile)):
         return p["_series"]
     return None
-
-
-def centre_offset(fits: list[tuple[float, float, float, float]],
-                  centre: tuple[float, float, float, float]) -> tuple[float, float, float]:
-    """How far the centre tile ``centre`` reads from the corner tiles ``fits`` (each ``(x, y,
-    log altitude, sd_log)``) beyond their noise (0 where the difference lies within its
-    noise at test level ``TILE_SCATTER_LEVEL``), the difference and its standard deviation,
-    all in log altitude and signed as the centre's reading less the corners'.
-
-    The corner tiles' random-effects mean (their own scatter, :func:`tile_scatter`, in the
-    weights) and the centre tile are two estimates: where they scatter beyond their
-    uncertainties (:func:`tile_scatter` of the two), the part of their difference ``d``
-    beyond its standard deviation ``s`` is ``sqrt(d^2 - s^2)``, the DerSimonian-Laird
-    variance between them taken whole: a fit that reads the corners' scale is off the
-    centre's by all of it, not by one estimate's share.
-    """
-    logs = [(lg, sd) for _, _, lg, sd in fits]
-    tau = tile_scatter(logs)
-    w = np.array([1.0 / (sd * sd + tau * tau) for _, sd in logs])
-    mean = float(w @ np.array([lg for lg, _ in logs])) / float(w.sum())
-    pair = [(mean, 1.0 / math.sqrt(float(w.sum()))), (centre[2], centre[3])]
-    d, s = centre[2] - mean, math.hypot(pair[0][1], pair[1][1])
-    if tile_scatter(pair) <= 0.0:
-        return 0.0, d, s
-    return math.copysign(math.sqrt(max(d * d - s * s, 0.0)), d), d, s
 
 
 def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LEVEL) -> float:

@@ -8,13 +8,18 @@ corrected, never confidently wrong.
 
 from __future__ import annotations
 
+import math
+
+import cv2
 import numpy as np
 import pytest
 from contract import assert_honest
+from scipy.ndimage import map_coordinates
 
 from wavealt.altimetry.dispersion import DispersionAltimeter, DispersionResult
 from wavealt.altimetry.dispersion.constants import ATTITUDE_PRIOR_SD_DEG, TILE_SCATTER_LEVEL
 from wavealt.altimetry.dispersion.search import weighted_spread
+from wavealt.altimetry.dispersion.tiles import radial_offset
 from wavealt.altimetry.dispersion.trust import tile_scatter
 from wavealt.sim.config import preset_config
 from wavealt.sim.generate import generate_sequence
@@ -272,6 +277,77 @@ def _slope_image(h: float, seed: int, *, size: int = 128, frames: int = 10):
     sc = cfg.sample_scenario(seed)
     data = generate_sequence(sc, cfg)
     return _normalise(data.slope_x + 0.7 * data.slope_y), sc.camera_velocity_mps, cfg.focal_px
+
+
+def _through_lens(frames: np.ndarray, focal: float, size: int, k1: float) -> np.ndarray:
+    """The centre ``size`` px of a pinhole's ``frames`` (focal length ``focal``) seen
+    through a lens of OpenCV's radial distortion ``k1`` with the same focal length: each
+    pixel samples the pinhole's image where its ray, undistorted by OpenCV, meets it."""
+    big, c = frames.shape[1], (size - 1) / 2.0
+    cols, rows = np.meshgrid(np.arange(size, dtype=np.float64),
+                             np.arange(size, dtype=np.float64))
+    k = np.array([[focal, 0.0, c], [0.0, focal, c], [0.0, 0.0, 1.0]])
+    ideal = cv2.undistortPoints(np.stack([cols.ravel(), rows.ravel()], 1)[:, None, :], k,
+                                np.array([k1, 0.0, 0.0, 0.0, 0.0]))[:, 0, :]
+    x, y = (focal * ideal[:, i] + (big - 1) / 2.0 for i in (0, 1))
+    assert min(x.min(), y.min()) >= 0.0 and max(x.max(), y.max()) <= big - 1.0
+    return np.stack([map_coordinates(f, [y, x], order=3).reshape(size, size)
+                     for f in frames])
+
+
+@pytest.mark.parametrize(("h", "seed", "k1"), [(4.0, 3, -0.4), (2.5, 7, 0.3)])
+def test_a_lens_that_distorts_is_named_not_trusted(h: float, seed: int, k1: float) -> None:
+    """A lens's radial distortion changes the image scale with the square of the distance
+    from the centre: the four corner tiles read one scale and no tilt, and the fit, made of
+    them, reads theirs, trusted before the edges were read.  The same sea through a barrel
+    (k1 < 0) or a pincushion lens (exaggerated for a 128-px frame) is not trusted, exact or
+    blind, and the reason names the lens, the edges reading toward the centre's scale from
+    the corners; the pinhole's frames are trusted and honest."""
+    cfg = preset_config("paper", size=256, frames=30, altitude_m=(h, h),
+                        wind_speed_mps=(7.0, 7.0), camera_speed_mps=(0.3, 0.3))
+    sc = cfg.sample_scenario(seed)
+    data = generate_sequence(sc, cfg)
+    img = data.slope_x + 0.7 * data.slope_y
+    kw = {"fps": cfg.fps, "focal_px": cfg.focal_px}
+    est = DispersionAltimeter(dispersion="gravity")
+    pinhole = _normalise(img[:, 64:192, 64:192])
+    for res in (est.estimate(pinhole, velocity_mps=sc.camera_velocity_mps, **kw),
+                est.estimate(pinhole, **kw)):
+        assert res.trusted, res
+        assert_honest(res, h)
+    lens = _normalise(_through_lens(img, cfg.focal_px, 128, k1))
+    for res in (est.estimate(lens, velocity_mps=sc.camera_velocity_mps, **kw),
+                est.estimate(lens, **kw)):
+        assert not res.trusted, res
+        assert "a lens that distorts: give its calibration" in res.reason
+        said = float(res.reason.split("edges read ")[1].split(" %")[0])
+        assert said * k1 > 0.0, res.reason  # barrel: the corners read high, the edges less
+        assert_honest(res, h)
+
+
+def test_the_edges_count_against_the_corners_on_the_square_of_the_distance() -> None:
+    """:func:`radial_offset`: edges that read the corners' scale within the noise of the
+    difference count nothing; edges far off count the part of the difference beyond that
+    noise, carried from the edges' mean squared distance to the centre (the corners' reading
+    less the centre's, opposite in sign to the edges' less the corners'), the same wherever
+    the scale lies; corners that scatter among themselves make their mean less certain, and
+    the same edges count less."""
+    rc, re = 2.0, 1.0  # mean squared distances: the corners' reading is twice the difference
+    corners = [(rc, 1.5, 0.02)] * 4
+    s = math.hypot(0.01, 0.015)  # the corners' mean and the edges'
+    edges = [(re, 1.5 + 0.5 * s, 0.03)] * 4
+    assert radial_offset(corners, edges) == (0.0, pytest.approx(0.5 * s), pytest.approx(s))
+    low = [(re, 1.45, 0.03)] * 4
+    off, d, sd = radial_offset(corners, low)
+    assert (d, sd) == (pytest.approx(-0.05), pytest.approx(s))
+    assert off == pytest.approx(2.0 * math.sqrt(0.05**2 - s**2))
+    shifted = [(r2, lg + 2.0, sd_) for r2, lg, sd_ in corners]
+    assert radial_offset(shifted, [(re, 3.55, 0.03)] * 4)[0] == pytest.approx(-off)
+    scattered = [(r2, lg + dl, sd_) for (r2, lg, sd_), dl
+                 in zip(corners, (-0.06, 0.06, 0.06, -0.06))]
+    assert tile_scatter([(f[1], f[2]) for f in scattered]) > 0.0
+    wide = radial_offset(scattered, low)
+    assert wide[1] == pytest.approx(-0.05) and wide[2] > s and abs(wide[0]) < abs(off)
 
 
 def test_a_frame_whose_halves_show_two_scales_is_not_trusted() -> None:

@@ -109,7 +109,14 @@ toward the other side (nor any tilt where no tile holds them alone), and with th
 unknown a prior tilt's part there joins the uncertainty: the prior is the caller's
 (``attitude_sigma_deg``, a gimbal's error; by default a tilt anywhere the tiles can measure),
 and a levelled view is kept only where its tiles measure the tilt better than the prior.
-The fit must also read what those tiles read: it is made of them.
+The fit must also read what those tiles read: it is made of them.  The corners lie at one
+distance from the frame's centre, so a lens whose distortion changes the scale with that
+distance moves all four alike, and the fit reads their scale.  Tiles at the middle of each
+side lie nearer the centre; where their mean reads another scale than the corners' beyond
+the noise of the difference, the change, carried on the square of the distance to the
+centre (a lens's first radial term), joins the uncertainty (:func:`.tiles.radial_offset`).
+A tilt changes the scale linearly across the frame, alike in both means; the centre itself,
+seen along the surface normal, shows the optics' products and is not read.
 
 A camera that turns about its axis carries the water past each corner tile its own way.  The
 difference of two tiles' phase steps on a mode holds the turn and nothing of the waves

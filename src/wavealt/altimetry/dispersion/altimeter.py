@@ -321,7 +321,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                               or res.reason)
         res.mode = "blind" if prior is None else "prior" if prior[2] > 0 else "exact"
         if self._distrust(res) is None:
-            res.reason = self._tile_verdict(fits, res)
+            res.reason = (self._tile_verdict(fits, res)
+                          or self._radial_verdict(fits, res, fit_signal, fps, fit_focal, p))
         if self._distrust(res) is None and "+carried" not in res.signal:
             res.reason = self._rigid_verdict(p and p.get("_fitted", p), res, fps, fit_focal)
         if (measure and self._distrust(res) is None

@@ -267,6 +267,14 @@ TILE_RANGE_FACTOR = 2.0
 #: tiles, whose peaks are less sure; for the tiles over the bar it lost right levellings,
 #: ``docs/dispersion.md``, forty-second session.)
 TILT_REACH_FACTOR = 1.35
+#: The edge tiles of :meth:`~.tiles._Tiles._edge_fits` (the middle of each side of the
+#: frame, between the corners and the centre) are searched within this factor of the fit's
+#: altitude.  A lens's radial distortion moves an edge tile's scale by about half a corner's
+#: (OpenCV k1 = -0.1, 256-px frames: corners +7-10 %, edges +3-5 %), while the products of
+#: an optics non-linear in the slope lie at 0.5-0.67 and 1.3-2 of the altitude: seen
+#: nearer the surface normal than the corners, a tile searched as widely read those
+#: (a centre tile: 0.5-0.67 / 1.3-2.0 h, ``docs/dispersion.md``, forty-ninth session).
+RADIAL_RANGE_FACTOR = 1.25
 #: A corner tile whose peak is prominent but stands above random phase steps by only this
 #: share of a tile's bar (:meth:`~.tiles._Tiles._corner_fits`) is a weak tile: it helps to
 #: measure a tilt where fewer than three tiles hold the shell, and judges nothing.  A tilted

@@ -13,6 +13,7 @@ import numpy as np
 from wavealt.altimetry.dispersion.attitude import tile_centres
 from wavealt.altimetry.dispersion.constants import (
     MIN_SIGNIFICANCE,
+    RADIAL_RANGE_FACTOR,
     TILE_RANGE_FACTOR,
     TILT_REACH_FACTOR,
     TRUSTED_QUALITY,
@@ -20,8 +21,8 @@ from wavealt.altimetry.dispersion.constants import (
 )
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.signal import normal_scores
-from wavealt.altimetry.dispersion.spectra import _corners
-from wavealt.altimetry.dispersion.trust import _corner_series
+from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners
+from wavealt.altimetry.dispersion.trust import _corner_series, _widen, tile_scatter
 
 #: A corner tile's fit: centre ``(x, y)`` px from the frame's centre, log altitude, its sigma.
 Tile = tuple[float, float, float, float]
@@ -53,14 +54,7 @@ class _Tiles:
         on the same corner tiles, whose mode series the tiles take where they hold the
         tile's modes, instead of transforming the tiles again (the same bits)."""
         t = signal.shape[0]
-        lo, hi = self.altitude_range_m
-        near = copy.copy(self)
-        if not whole_range:
-            near.altitude_range_m = (max(lo, res.altitude_m / TILE_RANGE_FACTOR),
-                                     min(hi, res.altitude_m * TILE_RANGE_FACTOR))
-        near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
-                                                          / near.altitude_range_m[0])
-                                   / math.log(hi / lo)))
+        near = self._near(res, None if whole_range else TILE_RANGE_FACTOR)
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
         # a tile's significance bar is the fit's for its share of the fit's modes (those of
@@ -93,6 +87,80 @@ class _Tiles:
                 weak.append(fit)
         return fits, weak
 
+    def _near(self, res: DispersionResult, factor: float | None) -> Any:
+        """This altimeter searching within ``factor`` of ``res``'s altitude, or over the
+        whole range (None), as finely."""
+        lo, hi = self.altitude_range_m
+        near = copy.copy(self)
+        if factor is not None:
+            near.altitude_range_m = (max(lo, res.altitude_m / factor),
+                                     min(hi, res.altitude_m * factor))
+        near.n_scan = max(8, round(self.n_scan * math.log(near.altitude_range_m[1]
+                                                          / near.altitude_range_m[0])
+                                   / math.log(hi / lo)))
+        return near
+
+    def _edge_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
+                   focal_px: float, p: dict[str, Any] | None
+                   ) -> list[tuple[float, float, float]]:
+        """The tiles of the corner tiles' size at the middle of each side of ``signal``'s
+        frames, each fitted alone as :meth:`_corner_fits` fits a corner, within
+        ``RADIAL_RANGE_FACTOR`` of the fit's altitude: ``(mean r^2, log altitude, sd_log)``
+        of every one whose fit holds a shell's peak, ``r`` a pixel's distance (px) from the
+        frame's centre, averaged over the tile."""
+        _, h0, w0 = signal.shape
+        h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
+        near = self._near(res, RADIAL_RANGE_FACTOR)
+        n_fit = p["kappa"].size if p is not None else self._plane(h, w)[4].size
+        out = []
+        for y0, x0 in ((0, (w0 - w) // 2), (h0 - h, (w0 - w) // 2), ((h0 - h) // 2, 0),
+                       ((h0 - h) // 2, w0 - w)):
+            q = self._fit_periodogram(normal_scores(signal[:, y0:y0 + h, x0:x0 + w]),
+                                      corners=False, continuum=False,
+                                      max_modes=max(self.max_modes // 4, 8))
+            if q is None:
+                continue
+            r = near._aided(q, signal.shape[0], fps, focal_px, res.camera_velocity_mps)
+            if self._holds_shell(r, math.sqrt(q["kappa"].size / n_fit)):
+                out.append((_mean_r2(h0, w0, y0, x0, h, w), math.log(r.altitude_m),
+                            r.altitude_std_m / r.altitude_m))
+        return out
+
+    def _radial_verdict(self, fits: list[Tile], res: DispersionResult, signal: np.ndarray,
+                        fps: float, focal_px: float, p: dict[str, Any] | None) -> str | None:
+        """Why a fit that passes every other test is not trusted because the image scale
+        changes from the frame's centre out, None where it does not; the change's part in
+        the fit (:func:`radial_offset`) joins its uncertainty, in place.
+
+        A lens's radial distortion (OpenCV's ``1 + k1 r^2``) changes the scale with the
+        square of the distance from the centre.  The four corner tiles ``fits`` lie at one
+        distance, so they read one scale and no tilt, and the fit, made of their
+        periodogram, reads theirs: an untold barrel lens (k1 = -0.1) read 5-17 % high at
+        1-3 % uncertainty, trusted (``docs/dispersion.md``, forty-ninth session).  The edge
+        tiles (:meth:`_edge_fits`) lie nearer the centre and read part of the change;
+        their difference from the corners, on the square of the distance, says what the
+        corners read beyond the centre's pinhole scale.  A tilt changes the scale linearly
+        across the frame, alike in the mean of the corners and of the edges.  (A centre
+        tile is not used: seen along the surface normal, its image is nearly quadratic in
+        the slope, and it reads the optics' products.)"""
+        if not fits:
+            return None
+        _, h0, w0 = signal.shape
+        h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
+        edges = self._edge_fits(signal, res, fps, focal_px, p)
+        if not edges:
+            return None
+        corners = [(_mean_r2(h0, w0, 0, 0, h, w), lg, sd) for _, _, lg, sd in fits]
+        off, d, s = radial_offset(corners, edges)
+        if off == 0.0:
+            return None
+        _widen(res, off)
+        if self._distrust(res) is None:
+            return None
+        return (f"the frame's edges read {100 * math.expm1(d):+.0f} % from its corners "
+                f"({abs(d) / s:.1f} sigma): the image scale changes from the centre out (a "
+                f"lens that distorts: give its calibration)")
+
     @staticmethod
     def _holds_shell(res: DispersionResult, scale: float = 1.0, prominent: bool = True) -> bool:
         """Whether a fit found a shell's peak: significant and prominent (the first two of
@@ -103,3 +171,44 @@ class _Tiles:
         (a tile on 1000 of the fit's 2598 modes, 0.62 of the bar)."""
         return (res.significance >= MIN_SIGNIFICANCE * scale
                 and (res.quality >= TRUSTED_QUALITY or not prominent))
+
+
+def _mean_r2(h0: int, w0: int, y0: int, x0: int, h: int, w: int) -> float:
+    """The mean squared distance (px^2) from the centre of an ``(h0, w0)`` frame of the
+    pixels of its tile ``(h, w)`` whose first pixel is ``(y0, x0)``."""
+    ys = np.arange(y0, y0 + h) + 0.5 - h0 / 2.0
+    xs = np.arange(x0, x0 + w) + 0.5 - w0 / 2.0
+    return float(np.mean(ys * ys) + np.mean(xs * xs))
+
+
+def _pooled(fits: list[tuple[float, float, float]]) -> tuple[float, float, float]:
+    """Random-effects means of ``fits`` (each ``(mean r^2, log altitude, sd_log)``): the
+    mean of their squared distances, their log altitude (weighted with their scatter beyond
+    their noise, :func:`~.trust.tile_scatter`), and its standard deviation."""
+    logs = [(lg, sd) for _, lg, sd in fits]
+    tau = tile_scatter(logs)
+    wt = np.array([1.0 / (sd * sd + tau * tau) for _, sd in logs])
+    mean = float(wt @ np.array([lg for lg, _ in logs])) / float(wt.sum())
+    return float(np.mean([r2 for r2, _, _ in fits])), mean, 1.0 / math.sqrt(float(wt.sum()))
+
+
+def radial_offset(corners: list[tuple[float, float, float]],
+                  edges: list[tuple[float, float, float]]) -> tuple[float, float, float]:
+    """How far the corner tiles ``corners`` read from the frame's centre, where the edge
+    tiles ``edges`` (each ``(mean r^2, log altitude, sd_log)``, ``r`` px from the centre)
+    show a scale that changes with the square of the distance beyond their noise; 0 where
+    the edges' mean and the corners' agree within the noise of their difference at test
+    level ``TILE_SCATTER_LEVEL``.  Also that difference ``d`` (edges less corners) and its
+    standard deviation ``s``, in log altitude.
+
+    With the scale ``log h + a r^2`` (a lens's first radial term) the two means differ by
+    ``d = a (R_e - R_c)``, and the corners read ``a R_c`` off the centre; the part of ``d``
+    beyond ``s`` (``sqrt(d^2 - s^2)``, DerSimonian and Laird's variance between two
+    estimates) is taken, scaled by ``R_c / (R_c - R_e)``.  The result has the sign of the
+    corners' reading less the centre's."""
+    rc, mc, sc = _pooled(corners)
+    re, me, se = _pooled(edges)
+    d, s = me - mc, math.hypot(sc, se)
+    if rc <= re or tile_scatter([(mc, sc), (me, se)]) <= 0.0:
+        return 0.0, d, s
+    return -math.copysign(math.sqrt(max(d * d - s * s, 0.0)) * rc / (rc - re), d), d, s

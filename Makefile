@@ -20,11 +20,12 @@ $(BIN)/.installed: pyproject.toml
 
 install: $(BIN)/.installed
 
+# One pytest worker per core (pytest-xdist); `pytest -n 0` runs them in one process.
 test: $(BIN)/.installed
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 test-all: $(BIN)/.installed
-	$(BIN)/python -m pytest -q -m "slow or not slow"
+	$(BIN)/python -m pytest -q -n auto -m "slow or not slow"
 
 reproduce: $(BIN)/.installed
 	$(BIN)/wavealt reproduce $(OUT)/reproduce

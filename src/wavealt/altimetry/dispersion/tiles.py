@@ -22,7 +22,7 @@ from wavealt.altimetry.dispersion.constants import (
 from wavealt.altimetry.dispersion.result import DispersionResult
 from wavealt.altimetry.dispersion.signal import normal_scores
 from wavealt.altimetry.dispersion.spectra import _corner_shape, _corners
-from wavealt.altimetry.dispersion.trust import _corner_series, _widen, tile_scatter
+from wavealt.altimetry.dispersion.trust import _corner_series, _widen, pooled_mean, tile_scatter
 
 #: A corner tile's fit: centre ``(x, y)`` px from the frame's centre, log altitude, its sigma.
 Tile = tuple[float, float, float, float]
@@ -57,10 +57,7 @@ class _Tiles:
         near = self._near(res, None if whole_range else TILE_RANGE_FACTOR)
         tiles = _corners(signal, self.corner_tiles or 0.4)
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
-        # a tile's significance bar is the fit's for its share of the fit's modes (those of
-        # the corner tiles' plane, ``max_modes`` of it, where ``p`` is not given)
-        n_fit = (p["kappa"].size if p is not None
-                 else self._plane(*tiles[0].shape[1:])[4].size)
+        n_fit = self._fit_modes(p, tiles[0].shape[1:])
         series = _corner_series(p, tiles[0].shape[1:])
         fits, weak = [], []
         for i, (tile, (x, y)) in enumerate(zip(tiles, centres)):
@@ -70,15 +67,10 @@ class _Tiles:
                     else {"corners": False, "frames": t, "_series": series[i:i + 1],
                           "_series_modes": p["_series_modes"],
                           "_power": None if p.get("_powers") is None else p["_powers"][i]})
-            # a quarter of the modes (a quarter of the corners' data); the square kept in the
-            # table (``docs/dispersion.md``, twenty-seventh session); scored as the corners
-            q = self._fit_periodogram(tile if like else normal_scores(tile), corners=False,
-                                      like=like, continuum=False,
-                                      max_modes=max(self.max_modes // 4, 8))
-            if q is None:
+            fitted = self._tile_fit(near, tile, like, fps, focal_px, res, n_fit)
+            if fitted is None:
                 continue
-            r = near._aided(q, t, fps, focal_px, res.camera_velocity_mps)
-            bar = math.sqrt(q["kappa"].size / n_fit)
+            r, bar = fitted
             fit = (x, y, math.log(r.altitude_m), r.altitude_std_m / r.altitude_m)
             if self._holds_shell(r, bar):
                 fits.append(fit)
@@ -100,28 +92,48 @@ class _Tiles:
                                    / math.log(hi / lo)))
         return near
 
-    def _edge_fits(self, signal: np.ndarray, res: DispersionResult, fps: float,
-                   focal_px: float, p: dict[str, Any] | None
+    def _fit_modes(self, p: dict[str, Any] | None, tile: tuple[int, int]) -> int:
+        """The modes of the fit that a tile's significance bar is scaled from: those of its
+        periodogram ``p``, else of the corner tiles' plane (``max_modes`` of it) for tiles
+        ``tile`` ``(h, w)``."""
+        return p["kappa"].size if p is not None else self._plane(*tile)[4].size
+
+    def _tile_fit(self, near: Any, tile: np.ndarray, like: dict[str, Any] | None,
+                  fps: float, focal_px: float, res: DispersionResult, n_fit: int
+                  ) -> tuple[DispersionResult, float] | None:
+        """One tile's frames ``tile`` (or its mode series ``like``) fitted alone by
+        ``near``'s aided search at ``res``'s velocity (m/s), and the tile's significance
+        bar as a part of the fit's: the fit's for its share of the fit's ``n_fit`` modes.
+        A quarter of the modes (a quarter of the corners' data); the square kept in the
+        table (``docs/dispersion.md``, twenty-seventh session); scored as the corners.
+        None where the tile holds no modes."""
+        q = self._fit_periodogram(tile if like else normal_scores(tile), corners=False,
+                                  like=like, continuum=False,
+                                  max_modes=max(self.max_modes // 4, 8))
+        if q is None:
+            return None
+        r = near._aided(q, tile.shape[0], fps, focal_px, res.camera_velocity_mps)
+        return r, math.sqrt(q["kappa"].size / n_fit)
+
+    def _edge_fits(self, signal: np.ndarray, tile: tuple[int, int], res: DispersionResult,
+                   fps: float, focal_px: float, p: dict[str, Any] | None
                    ) -> list[tuple[float, float, float]]:
-        """The tiles of the corner tiles' size at the middle of each side of ``signal``'s
-        frames, each fitted alone as :meth:`_corner_fits` fits a corner, within
+        """The tiles of the corner tiles' size ``tile`` ``(h, w)`` at the middle of each side
+        of ``signal``'s frames, each fitted alone as :meth:`_corner_fits` fits a corner, within
         ``RADIAL_RANGE_FACTOR`` of the fit's altitude: ``(mean r^2, log altitude, sd_log)``
         of every one whose fit holds a shell's peak, ``r`` a pixel's distance (px) from the
         frame's centre, averaged over the tile."""
         _, h0, w0 = signal.shape
-        h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
+        h, w = tile
         near = self._near(res, RADIAL_RANGE_FACTOR)
-        n_fit = p["kappa"].size if p is not None else self._plane(h, w)[4].size
+        n_fit = self._fit_modes(p, (h, w))
         out = []
         for y0, x0 in ((0, (w0 - w) // 2), (h0 - h, (w0 - w) // 2), ((h0 - h) // 2, 0),
                        ((h0 - h) // 2, w0 - w)):
-            q = self._fit_periodogram(normal_scores(signal[:, y0:y0 + h, x0:x0 + w]),
-                                      corners=False, continuum=False,
-                                      max_modes=max(self.max_modes // 4, 8))
-            if q is None:
-                continue
-            r = near._aided(q, signal.shape[0], fps, focal_px, res.camera_velocity_mps)
-            if self._holds_shell(r, math.sqrt(q["kappa"].size / n_fit)):
+            fitted = self._tile_fit(near, signal[:, y0:y0 + h, x0:x0 + w], None, fps,
+                                    focal_px, res, n_fit)
+            if fitted is not None and self._holds_shell(*fitted):
+                r = fitted[0]
                 out.append((_mean_r2(h0, w0, y0, x0, h, w), math.log(r.altitude_m),
                             r.altitude_std_m / r.altitude_m))
         return out
@@ -147,7 +159,7 @@ class _Tiles:
             return None
         _, h0, w0 = signal.shape
         h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
-        edges = self._edge_fits(signal, res, fps, focal_px, p)
+        edges = self._edge_fits(signal, (h, w), res, fps, focal_px, p)
         if not edges:
             return None
         corners = [(_mean_r2(h0, w0, 0, 0, h, w), lg, sd) for _, _, lg, sd in fits]
@@ -186,10 +198,8 @@ def _pooled(fits: list[tuple[float, float, float]]) -> tuple[float, float, float
     mean of their squared distances, their log altitude (weighted with their scatter beyond
     their noise, :func:`~.trust.tile_scatter`), and its standard deviation."""
     logs = [(lg, sd) for _, lg, sd in fits]
-    tau = tile_scatter(logs)
-    wt = np.array([1.0 / (sd * sd + tau * tau) for _, sd in logs])
-    mean = float(wt @ np.array([lg for lg, _ in logs])) / float(wt.sum())
-    return float(np.mean([r2 for r2, _, _ in fits])), mean, 1.0 / math.sqrt(float(wt.sum()))
+    mean, sd_mean = pooled_mean(logs, tile_scatter(logs))
+    return float(np.mean([r2 for r2, _, _ in fits])), mean, sd_mean
 
 
 def radial_offset(corners: list[tuple[float, float, float]],

@@ -306,11 +306,9 @@ class _Trust:
         logs = [(lg, sd) for _, _, lg, sd in fits]
         tau = tile_scatter(logs)
         if logs:
-            w = np.array([1.0 / (sd * sd + tau * tau) for _, sd in logs])
-            mean = float(w @ np.array([lg for lg, _ in logs])) / float(w.sum())
+            mean, sd_mean = pooled_mean(logs, tau)
             off = mean - math.log(res.altitude_m)
-            z = abs(off) / math.hypot(res.altitude_std_m / res.altitude_m,
-                                      1.0 / math.sqrt(float(w.sum())))
+            z = abs(off) / math.hypot(res.altitude_std_m / res.altitude_m, sd_mean)
             if z > TILE_AGREEMENT_SIGMAS:
                 return (f"the corner tiles that hold the waves read "
                         f"{100 * math.expm1(off):+.0f} % from the fit ({z:.1f} sigma): its "
@@ -414,6 +412,15 @@ def _corner_series(p: dict[str, Any] | None, tile: tuple[int, int]) -> np.ndarra
             and tuple(p["tile"]) == tuple(tile)):
         return p["_series"]
     return None
+
+
+def pooled_mean(fits: list[tuple[float, float]], tau: float) -> tuple[float, float]:
+    """The random-effects mean of estimates ``fits`` (each ``(log altitude, sd_log)``),
+    each weighted ``1 / (sd^2 + tau^2)`` with ``tau`` their scatter beyond their noise
+    (:func:`tile_scatter`), and its standard deviation."""
+    w = np.array([1.0 / (sd * sd + tau * tau) for _, sd in fits])
+    mean = float(w @ np.array([lg for lg, _ in fits])) / float(w.sum())
+    return mean, 1.0 / math.sqrt(float(w.sum()))
 
 
 def tile_scatter(fits: list[tuple[float, float]], level: float = TILE_SCATTER_LEVEL) -> float:

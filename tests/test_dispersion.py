@@ -36,7 +36,7 @@ from wavealt.altimetry.dispersion.constants import (
     MIN_REFINE_MODES,
     PAIRED_BAND_SD_FRACTION,
 )
-from wavealt.altimetry.dispersion.profile import paired_band
+from wavealt.altimetry.dispersion.profile import paired_band, rank_peaks
 from wavealt.altimetry.dispersion.spectra import sharpness_at
 from wavealt.altimetry.dispersion.signal import bin_frames, working_bin
 from wavealt.altimetry.series import altitude_series
@@ -1056,6 +1056,27 @@ def test_the_paired_band_is_where_the_peak_beats_the_ridge_by_less_than_a_standa
     assert paired_band(grid, ridge(0.0, 0.01), i) == pytest.approx(
         0.5 * (grid[-1] - grid[0]) + 0.05, rel=1e-9)
     assert paired_band(grid, ridge(2.0, 0.01), i) == pytest.approx(0.5 * 0.05, rel=1e-3)
+
+
+def test_of_the_blind_peaks_that_stand_out_of_the_noise_the_highest_comes_first() -> None:
+    """A profile with a bump near the bottom of the range (prominence 2.4) and a broad peak
+    three times higher that falls only 1.5 to the top: the high peak comes first where 1.5
+    clears the noise bar, the prominent bump where it does not; peaks under the bar keep
+    their order of prominence, after those above it."""
+    from wavealt.altimetry.dispersion import peak_prominences
+
+    x = np.arange(61, dtype=float)
+    scan = np.interp(x, [0, 7, 19, 54, 60], [14.5, 16.9, 14.0, 45.5, 44.0])
+    scan[30] += 1.5  # a ripple on the rise: a third, weak peak (prominence 0.4)
+    peaks, prom = peak_prominences(scan)
+    order = np.argsort(-prom, kind="stable")
+    given = [(int(peaks[k]), float(prom[k]), True) for k in order]
+    assert [pk[0] for pk in given] == [7, 54, 30]
+    assert [pk[0] for pk in rank_peaks(given, scan, 1.4)] == [54, 7, 30]
+    assert [pk[0] for pk in rank_peaks(given, scan, 1.75)] == [7, 54, 30]
+    assert rank_peaks(given, scan, 0.0)[0][0] == 54
+    assert rank_peaks(given, scan, 10.0) == given
+    assert rank_peaks([], scan, 1.0) == []
 
 
 def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:

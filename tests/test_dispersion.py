@@ -1061,8 +1061,8 @@ def test_the_paired_band_is_where_the_peak_beats_the_ridge_by_less_than_a_standa
 def test_of_the_blind_peaks_that_stand_out_of_the_noise_the_highest_comes_first() -> None:
     """A profile with a bump near the bottom of the range (prominence 2.4) and a broad peak
     three times higher that falls only 1.5 to the top: the high peak comes first where 1.5
-    clears the noise bar, the prominent bump where it does not; peaks under the bar keep
-    their order of prominence, after those above it."""
+    clears the noise bar and lies in the altitude range, the prominent bump where it does
+    not; the others keep their order of prominence, after those ranked by height."""
     from wavealt.altimetry.dispersion import peak_prominences
 
     x = np.arange(61, dtype=float)
@@ -1077,6 +1077,9 @@ def test_of_the_blind_peaks_that_stand_out_of_the_noise_the_highest_comes_first(
     assert rank_peaks(given, scan, 0.0)[0][0] == 54
     assert rank_peaks(given, scan, 10.0) == given
     assert rank_peaks([], scan, 1.0) == []
+    # the high peak beyond the altitude range: no answer, however high
+    outside = [(j, pr, j != 54) for j, pr, _ in given]
+    assert [pk[0] for pk in rank_peaks(outside, scan, 1.4)] == [7, 54, 30]
 
 
 def test_a_flat_blind_ridge_widens_the_uncertainty_past_trust() -> None:

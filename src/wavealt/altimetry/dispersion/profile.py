@@ -395,9 +395,10 @@ class _Profile(_VelocityMap):
 
 def rank_peaks(peaks: list[tuple[int, float, bool]], scan: np.ndarray, bar: float
                ) -> list[tuple[int, float, bool]]:
-    """Profile peaks ``(index, prominence, inside)``, given most prominent first, in the
-    order the blind fit takes them: those that stand out of the profile by ``bar`` (its
-    noise times ``MIN_PROMINENCE_Z``) highest first, then the others as given.
+    """Profile peaks ``(index, prominence, inside the range)``, given most prominent first,
+    in the order the blind fit takes them: those inside the altitude range that stand out of
+    the profile by ``bar`` (its noise times ``MIN_PROMINENCE_Z``), highest first, then the
+    others as given.
 
     The profile is the score, the clip's share that the shell explains, maximised over the
     velocity at each altitude: of two peaks that each stand out of its noise, the higher is
@@ -406,10 +407,13 @@ def rank_peaks(peaks: list[tuple[int, float, bool]], scan: np.ndarray, bar: floa
     sigma) to the top of the range lost to a bump of 0.0169 at 1.13 m that stood 2.4e-3
     above the bottom end (realistic preset, seed 223 #99, 1-s blind, read -92 %;
     ``docs/dispersion.md``, fifty-first session).  A ridge that rises to an end of the range
-    makes no peak there, and a bump on it within the noise is not ranked by its height.
+    makes no peak there, a bump on it within the noise is not ranked by its height, and a
+    peak beyond the range (the profile reaches past it to measure a peak's fall) is no
+    answer however high.
     """
-    strong = sorted((pk for pk in peaks if pk[1] >= bar), key=lambda pk: -scan[pk[0]])
-    return strong + [pk for pk in peaks if pk[1] < bar]
+    strong = sorted((pk for pk in peaks if pk[1] >= bar and pk[2]),
+                    key=lambda pk: -scan[pk[0]])
+    return strong + [pk for pk in peaks if pk not in strong]
 
 
 def paired_band(grid: np.ndarray, ridge: np.ndarray, i: int, t_max: float = 1.0) -> float:

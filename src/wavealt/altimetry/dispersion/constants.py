@@ -373,8 +373,7 @@ AIDED_SCAN_ABOVE = 4.0
 AIDED_SHRINK_FRACTION = 0.1
 #: The blind profile spans from the lowest altitude the frame rate can test
 #: (``ALIAS_MODE_FRACTION``) to ``exp(BLIND_PROFILE_ABOVE_LOG)`` (x1.5) of the phase-step
-#: start's altitude, whose bias is mostly upward, and as far past the top of the range from
-#: a start that ran off its bottom; step in log altitude
+#: start's altitude, whose bias is mostly upward; step in log altitude
 #: (:meth:`DispersionAltimeter._fit_blind`).
 BLIND_PROFILE_ABOVE_LOG = 0.4
 BLIND_PROFILE_STEP_LOG = 0.05

@@ -167,16 +167,11 @@ class _Profile(_VelocityMap):
         translation.  A start within a profile step of the top of the range, or less than
         x1.5 above its bottom (a failed Gauss-Newton start ends near a bound), ran off the
         range and tells nothing, of the altitude nor of the velocity: from the bottom, the
-        profile runs to x1.5 past the top of the range, as it does from a start at the top,
-        so that a shell's peak near the top, broad where the waves move little in the clip,
-        has its fall measured on both sides (a camera at 9-14 m whose start ran off the
-        bottom read 0.8-1.1 m where the profile stopped at the top: ``docs/dispersion.md``,
-        fifty-first session); from either end it is also searched from a global map of the
-        velocity (:meth:`_seed_profile`).  Of its peaks, the one :func:`rank_peaks` ranks
-        first among the most prominent that are significant on every mode is refined like
-        the aided fit, on the modes above the bottom of the band
-        (``BLIND_REFINE_MIN_KAPPA``): the bottom holds the optics' slow difference products
-        as well as the waves.
+        profile runs to the top of the range, and from either end it is also searched from
+        a global map of the velocity (:meth:`_seed_profile`).  Of its most prominent peaks,
+        the most prominent one that is significant on every mode is refined like the aided
+        fit, on the modes above the bottom of the band (``BLIND_REFINE_MIN_KAPPA``): the
+        bottom holds the optics' slow difference products as well as the waves.
 
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
         ``radius`` of ``(vx, vy)``.  The profile is the blind one; the prior chooses among its
@@ -191,8 +186,7 @@ class _Profile(_VelocityMap):
         # a start that ran off the range (see above)
         bottom = logh0 <= lo + BLIND_PROFILE_ABOVE_LOG
         pinned = bottom or logh0 >= hi - step
-        top = (hi if bottom else logh0) + BLIND_PROFILE_ABOVE_LOG
-        top = max(top, low + 4.0 * step)
+        top = hi if bottom else max(logh0 + BLIND_PROFILE_ABOVE_LOG, low + 4.0 * step)
         # the grid passes through the start, which is where the continuation begins
         # (a hair of tolerance keeps ends that are whole steps away on the grid)
         if logh0 > low:

@@ -17,6 +17,7 @@ from wavealt.altimetry.dispersion.constants import (
     CARRIED_CHECKED_MIN_RATIO,
     CARRIED_MATCH_BINS,
     CARRIED_MIN_RATIO,
+    CORNER_TILES,
     DEGLINTS,
     DISPERSIONS,
     MIN_FIT_MODES,
@@ -130,13 +131,12 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary",
-                 water_depth_m: float | None = None, deglint: str = "clip",
-                 clip_sigma: float = 3.0, max_modes: int = 4000, min_kappa_bins: float = 2.5,
-                 max_kappa_frac: float = 0.85, max_shift_px: float = 16.0,
-                 altitude_range_m: tuple[float, float] = (0.5, 20.0),
+                 water_depth_m: float | None = None, deglint: str = "clip", clip_sigma: float = 3.0,
+                 max_modes: int = 4000, min_kappa_bins: float = 2.5, max_kappa_frac: float = 0.85,
+                 max_shift_px: float = 16.0, altitude_range_m: tuple[float, float] = (0.5, 20.0),
                  tiles: str = "full", signal: str = "auto", glint_r2: float = 0.3,
                  n_psi: int | None = None, n_scan: int = 80, n_groups: int = 8,
-                 sharpness: float = 5.0, corner_tiles: float = 0.4,
+                 sharpness: float = 5.0, corner_tiles: float = CORNER_TILES,
                  attitude: str = "estimate", working_px: int = WORKING_PX,
                  attitude_sigma_deg: float | None = None) -> None:
         self.signal = check_choice("signal", signal, SIGNALS)

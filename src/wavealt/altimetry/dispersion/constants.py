@@ -334,6 +334,10 @@ EDGE_FACTOR = 1.15
 BLOCK_CODED_MIN_EXCESS = 0.1
 #: The block lattice's period, px (JPEG's and MPEG's 8 x 8 transform blocks).
 BLOCK_PERIOD_PX = 8
+#: Side of the four corner tiles, as a fraction of the frame's (``corner_tiles``'s default):
+#: the periodogram's tiles, and the tiles every tile check cuts where the fit takes the whole
+#: frame instead (``corner_tiles=0``; :meth:`~.spectra._Spectra._tile_fraction`).
+CORNER_TILES = 0.4
 #: The altimeter's working scale: frames whose shorter side is at least twice this are
 #: binned (each b x b block of pixels averaged, as a camera's binning does) by the largest
 #: power of two, at most ``MAX_BIN``, that leaves it at least this, and the focal length with

@@ -51,7 +51,7 @@ def image_shake(frames: Any, altimeter: Any = None, min_ratio: float = JITTER_MI
         if b > 1:
             arr = bin_frames(arr, b)
         signal = altimeter._luma(arr)
-        parts = _corners(signal, altimeter.corner_tiles or 0.4)
+        parts = _corners(signal, altimeter._tile_fraction())
         kx, ky, _, _, idx = altimeter._plane(*parts[0].shape[1:])
         series = _windowed_modes(parts, idx)
         series -= series.mean(axis=1, keepdims=True)

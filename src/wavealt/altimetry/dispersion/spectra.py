@@ -13,6 +13,7 @@ import scipy.fft
 
 from wavealt._checks import check_finite_number
 from wavealt.altimetry.dispersion.constants import (
+    CORNER_TILES,
     JITTER_MIN_FRAMES,
     JITTER_PIXEL_PASSES,
     MIN_FIT_MODES,
@@ -166,6 +167,12 @@ class _Spectra:
     """Spectra of :class:`DispersionAltimeter`: the blind start's cross-spectra modes and the
     whitened periodogram (uses ``tiles``, ``max_modes``, ``min_kappa_bins``,
     ``max_kappa_frac``, ``n_psi``, ``corner_tiles``, ``sharpness``)."""
+
+    def _tile_fraction(self) -> float:
+        """Side of the corner tiles that the tile checks (tilt, turn, shake, lens) cut, as a
+        fraction of the frame's: ``corner_tiles``, or ``CORNER_TILES`` where the fit takes
+        the whole frame (``corner_tiles=0``)."""
+        return self.corner_tiles or CORNER_TILES
 
     def _modes(self, gray: np.ndarray) -> dict[str, np.ndarray]:
         """Per-mode phase step, weight and wavenumber from the frame cross-spectra."""

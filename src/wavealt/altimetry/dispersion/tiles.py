@@ -55,7 +55,7 @@ class _Tiles:
         tile's modes, instead of transforming the tiles again (the same bits)."""
         t = signal.shape[0]
         near = self._near(res, None if whole_range else TILE_RANGE_FACTOR)
-        tiles = _corners(signal, self.corner_tiles or 0.4)
+        tiles = _corners(signal, self._tile_fraction())
         centres = tile_centres(signal.shape[1:], tiles[0].shape[1:])
         n_fit = self._fit_modes(p, tiles[0].shape[1:])
         series = _corner_series(p, tiles[0].shape[1:])
@@ -158,7 +158,7 @@ class _Tiles:
         if not fits:
             return None
         _, h0, w0 = signal.shape
-        h, w = _corner_shape(h0, w0, self.corner_tiles or 0.4)
+        h, w = _corner_shape(h0, w0, self._tile_fraction())
         edges = self._edge_fits(signal, (h, w), res, fps, focal_px, p)
         if not edges:
             return None

@@ -268,7 +268,7 @@ class _Trust:
         one velocity over the frame; a turn gives each tile its own, and the shell the fit
         finds is smeared or moved: 8.57 m read as 9.75 m at 3 deg/s, trusted, before this
         test (``docs/dispersion.md``, twenty-third session)."""
-        tiles = _corners(signal, self.corner_tiles or 0.4)
+        tiles = _corners(signal, self._tile_fraction())
         shape = tiles[0].shape[1:]
         if min(shape) < 32:
             return None
@@ -344,7 +344,7 @@ class _Trust:
         longer trusted where it passed the trust tests before and the wider interval fails
         the bar, else None."""
         # the corner tiles' places (:meth:`_corner_fits` cuts them so)
-        tile = _corner_shape(*shape, self.corner_tiles or 0.4)
+        tile = _corner_shape(*shape, self._tile_fraction())
         var = unlevelled_tilt_var_log(fits, focal_px, self._attitude_prior_sd, tile)
         if var is None:
             var = unmeasured_tilt_var_log(fits, focal_px, self._attitude_prior_sd,

@@ -415,9 +415,10 @@ def result_fields(res: Any, altitude_m: float) -> dict[str, Any]:
 def run_sequence(task: tuple) -> list[dict[str, Any]]:
     """Window records (one per condition) of sequence ``index`` of a row and seed: ``task``
     is ``(row, seed, index, sequences, size, use_cache, sensor, attitude,
-    attitude_sigma_deg)`` (:func:`tasks_of`; ``sensor``: :func:`sim_config`'s, the last two
-    :class:`DispersionAltimeter`'s)."""
-    name, seed, index, sequences, size, use_cache, sensor, attitude, attitude_sd = task
+    attitude_sigma_deg, aspect)`` (:func:`tasks_of`; ``sensor``: :func:`sim_config`'s, the
+    attitude's :class:`DispersionAltimeter`'s; ``aspect``: the frames cropped to this width :
+    height, ``bench_foreign_sea.crop_to_aspect``, None: square)."""
+    name, seed, index, sequences, size, use_cache, sensor, attitude, attitude_sd, aspect = task
     row = row_of(name)
     cfg = sim_config(row.preset, row.frames, seed, sequences, size, sensor)
     sc = cfg.sample_scenario(index)
@@ -428,6 +429,10 @@ def run_sequence(task: tuple) -> list[dict[str, Any]]:
     except ValueError as exc:
         return [{**base, "condition": c, "status": "generation-error", "reason": str(exc)}
                 for c in CONDITIONS]
+    if aspect is not None:
+        from bench_foreign_sea import crop_to_aspect
+
+        frames = {c: crop_to_aspect(frames[c], aspect) for c in CONDITIONS}
     out = []
     for c in CONDITIONS:
         res, dt = timed_estimate(row, frames[c], cfg, velocity, sigma, attitude, attitude_sd)
@@ -581,10 +586,10 @@ def targets() -> dict[str, Any]:
 # -- running -----------------------------------------------------------------------------------
 def tasks_of(rows: Iterable[RowSpec], seeds: Sequence[int], sequences: int, size: int,
              use_cache: bool, sensor: tuple[tuple[str, Any], ...] = (),
-             attitude: str = "estimate",
-             attitude_sigma_deg: float | None = None) -> list[tuple]:
-    return [(r.name, s, i, sequences, size, use_cache, sensor, attitude, attitude_sigma_deg)
-            for r in rows for s in seeds for i in range(sequences)]
+             attitude: str = "estimate", attitude_sigma_deg: float | None = None,
+             aspect: tuple[int, int] | None = None) -> list[tuple]:
+    return [(r.name, s, i, sequences, size, use_cache, sensor, attitude, attitude_sigma_deg,
+             aspect) for r in rows for s in seeds for i in range(sequences)]
 
 
 def run_tasks(tasks: list[tuple], workers: int) -> list[dict[str, Any]]:
@@ -700,6 +705,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help=f"sequences per row and seed (default {DEFAULT_SEQUENCES}; "
                          f"--quick: {QUICK_SEQUENCES})")
     ap.add_argument("--size", type=int, default=SIZE_PX, help="frame side, px (the targets: 256)")
+    ap.add_argument("--aspect", metavar="W:H",
+                    help="crop each frame's middle to this width : height, the longer side "
+                         "(--size) and the focal length kept (16:9 of 512 px: 512 x 288, a "
+                         "video camera's frame); default square")
     ap.add_argument("--workers", type=int, default=1, help="processes, one thread each")
     ap.add_argument("--out", type=Path, default=None,
                     help="also write the JSON here (atomically) and the windows to .csv beside")
@@ -792,6 +801,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
             check_attitude_sigma("--attitude-sigma-deg", args.attitude_sigma_deg)
         except ValueError as exc:
             ap.error(str(exc))
+    if args.aspect is not None:
+        from bench_foreign_sea import parse_aspect
+
+        try:
+            args.aspect = parse_aspect(args.aspect)
+        except ValueError as exc:
+            ap.error(str(exc))
     if args.fov_deg is not None and not 10.0 <= args.fov_deg <= 150.0:
         ap.error(f"--fov-deg must be within 10-150; got {args.fov_deg:g}")
     args.sensor = tuple((k, v) for k, v in (("compression", args.compression),
@@ -813,7 +829,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_cache:
         check_cache(args.prune_cache)
     tasks = tasks_of(args.rows, args.seeds, args.sequences, args.size, not args.no_cache,
-                     args.sensor, args.attitude, args.attitude_sigma_deg)
+                     args.sensor, args.attitude, args.attitude_sigma_deg, args.aspect)
     recs = run_tasks(tasks, args.workers)
     rows = {r.name: row_report(r, args.seeds, [x for x in recs if x["row"] == r.name])
             for r in args.rows}
@@ -827,6 +843,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "settings": {
             "rows": [r.name for r in args.rows], "seeds": list(args.seeds),
             "sequences_per_seed": args.sequences, "size_px": args.size,
+            "aspect": None if args.aspect is None else "{}:{}".format(*args.aspect),
             "scenario_overrides": {k: list(v) for k, v in SCENARIO_OVERRIDES.items()},
             "workers": args.workers, "cache": not args.no_cache,
             "attitude": args.attitude, "attitude_sigma_deg": args.attitude_sigma_deg,

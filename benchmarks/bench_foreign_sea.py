@@ -693,10 +693,12 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
                   max_tilt_deg: float = 0.0, sky: str = "gradient",
                   camera: tuple[str, ...] = (), tell_readout: bool = False,
                   depth_m: tuple[float, float] | None = None,
-                  tell_depth: bool = False, one_way: bool = False) -> list[dict]:
+                  tell_depth: bool = False, one_way: bool = False,
+                  aspect: tuple[int, int] | None = None) -> list[dict]:
     """One record per window of every row of clip ``seed``; ``tell_readout``: the altimeter
     is given the rolling shutter's readout time; ``tell_depth``: the water's depth (drawn
-    from ``depth_m``, :func:`draw_scene`); ``one_way``: a sea running one way."""
+    from ``depth_m``, :func:`draw_scene`); ``one_way``: a sea running one way; ``aspect``:
+    the frames cropped to this width : height (:func:`crop_to_aspect`)."""
     sc = replace(draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way),
                  lens_k1=LENS_K1)
     altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
@@ -714,6 +716,8 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
 
         view = NadirView(lens_calibration(sc), frames.shape[2], frames.shape[1])
         frames, focal = view(frames), view.focal_px
+    if aspect is not None:
+        frames = crop_to_aspect(frames, aspect)
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
@@ -738,6 +742,29 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
             records.append({**base, "row": row, "mode": mode, "start": start,
                             "latency_s": time.perf_counter() - t0, **out})
     return records
+
+
+def parse_aspect(text: str) -> tuple[int, int]:
+    """``--aspect W:H`` as ``(W, H)``; ValueError naming it where it is not two whole numbers
+    within 1:4-4:1."""
+    parts = text.split(":")
+    if (len(parts) != 2 or not all(p.isdigit() and int(p) > 0 for p in parts)
+            or not 1 / 4 <= int(parts[0]) / int(parts[1]) <= 4):
+        msg = f"--aspect must be W:H, two whole numbers within 1:4-4:1; got {text!r}"
+        raise ValueError(msg)
+    return int(parts[0]), int(parts[1])
+
+
+def crop_to_aspect(frames: np.ndarray, aspect: tuple[int, int]) -> np.ndarray:
+    """The middle of square frames ``(T, N, N[, 3])`` whose width : height is ``aspect``, the
+    longer side kept whole (``--aspect``; 16:9 of 512 px: 512 x 288): a video camera's frame,
+    whose focal length is quoted across its width, with the same optics and pixels."""
+    n = frames.shape[1]
+    w, h = aspect
+    rows = n if h >= w else 2 * round(n * h / w / 2)
+    cols = n if w >= h else 2 * round(n * w / h / 2)
+    top, left = (n - rows) // 2, (n - cols) // 2
+    return np.ascontiguousarray(frames[:, top:top + rows, left:left + cols])
 
 
 def _stats(recs: list[dict]) -> dict[str, Any]:
@@ -978,6 +1005,10 @@ def main() -> int:
                     help="give the altimeter the rolling shutter's readout time (readout_s)")
     ap.add_argument("--size", type=int, default=SIZE,
                     help="frame side, px, over the same field of view (default 256)")
+    ap.add_argument("--aspect", metavar="W:H",
+                    help="crop each frame's middle to this width : height, the longer side "
+                         "kept (16:9 of 512 px: 512 x 288; a video camera's frame, its focal "
+                         "length quoted across its width); default square")
     ap.add_argument("--fps", type=float, default=FPS,
                     help="frames per second of the clips (default 30); a row keeps its frame "
                          "count, so blind30 lasts 30 / FPS s")
@@ -1072,6 +1103,10 @@ def main() -> int:
         ap.error(f"--lens-k1 must be within +-{MAX_LENS_K1:g}; got {a.lens_k1:g}")
     if a.tell_calibration and a.lens_k1 == 0.0:
         ap.error("--tell-calibration needs --lens-k1")
+    try:
+        aspect = None if a.aspect is None else parse_aspect(a.aspect)
+    except ValueError as exc:
+        ap.error(str(exc))
     set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg, a.supersample,
              a.lens_k1, a.tell_calibration)
     if a.save_clips:
@@ -1082,7 +1117,7 @@ def main() -> int:
     job = partial(evaluate_clip, rows=rows, save_dir=a.save_clips, prior_sigma=a.prior_sigma,
                   max_current=a.max_current, max_tilt_deg=a.max_tilt_deg, sky=a.sky,
                   camera=camera, tell_readout=a.tell_readout, depth_m=depth,
-                  tell_depth=a.tell_depth, one_way=a.one_way)
+                  tell_depth=a.tell_depth, one_way=a.one_way, aspect=aspect)
     t0, records = time.perf_counter(), list[dict]()
     pool_of = partial(Pool, a.workers, initializer=set_size, initargs=(a.size, a.working_px, a.fps,
                                                                      a.h264_crf,
@@ -1102,6 +1137,7 @@ def main() -> int:
                "max_tilt_deg": a.max_tilt_deg, "sky": a.sky, "camera": list(camera),
                "tell_readout": a.tell_readout, "depth_m": a.depth_m,
                "tell_depth": a.tell_depth, "one_way": a.one_way, "size": a.size,
+               "aspect": a.aspect,
                "supersample": a.supersample, "lens_k1": a.lens_k1,
                "tell_calibration": a.tell_calibration,
                "working_px": a.working_px,

@@ -39,6 +39,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     (("--attitude", "level", "--attitude-sigma-deg", "1"),
      "--attitude-sigma-deg goes with --attitude estimate"),
     (("--redraw", "run.csv"), "--redraw needs --figure (the PNG to draw)"),
+    (("--aspect", "16x9"), "--aspect must be W:H, two whole numbers within 1:4-4:1; got '16x9'"),
     (("--redraw", "/nonexistent/run.csv", "--figure", "f.png"),
      "--redraw: [Errno 2] No such file or directory: '/nonexistent/run.csv'"),
 ])
@@ -98,12 +99,33 @@ def test_the_attitude_option_reaches_the_altimeter_of_every_task() -> None:
     row = bench.ROW_BY_NAME["realistic-30-blind"]
     for attitude in ("estimate", "level"):
         (task,) = bench.tasks_of([row], [3], 1, 64, False, (), attitude)
-        assert task[-2:] == (attitude, None)
+        assert task[7:9] == (attitude, None)
         assert bench.estimator(row.dispersion, attitude).attitude == attitude
-    assert bench.tasks_of([row], [3], 1, 64, False)[0][-2:] == ("estimate", None)
+    assert bench.tasks_of([row], [3], 1, 64, False)[0][7:] == ("estimate", None, None)
     # a gimbal's prior (--attitude-sigma-deg) travels with the tasks too
     (task,) = bench.tasks_of([row], [3], 1, 64, False, (), "estimate", 2.0)
-    assert bench.estimator(row.dispersion, *task[-2:]).attitude_sigma_deg == 2.0
+    assert bench.estimator(row.dispersion, *task[7:9]).attitude_sigma_deg == 2.0
+
+
+def test_the_aspect_crops_the_frames_the_altimeter_reads(monkeypatch) -> None:
+    """``--aspect`` travels with the tasks, and each window is read on the middle of its
+    frames at that width : height (a video camera's frame), the focal length unchanged."""
+    bench = _bench_module()
+    row = bench.ROW_BY_NAME["paper-10-exact"]
+    (task,) = bench.tasks_of([row], [3], 1, 64, False, (), "estimate", None, (16, 9))
+    assert task[-1] == (16, 9)
+    seen = []
+    timed = bench.timed_estimate
+
+    def spy(row, frames, cfg, *args):
+        seen.append((frames.shape, cfg.focal_px))
+        return timed(row, frames, cfg, *args)
+
+    monkeypatch.setattr(bench, "timed_estimate", spy)
+    recs = bench.run_sequence(task)
+    focal = bench.sim_config("paper", 10, 3, 1, 64).focal_px
+    assert seen == [((10, 36, 64, 3), focal)] * 2
+    assert [r["status"] for r in recs] == ["ok", "ok"]
 
 
 def test_a_row_of_any_length_is_judged_against_the_contract_alone() -> None:

@@ -1574,6 +1574,38 @@ def test_frames_twice_the_working_scale_read_as_their_binned_frames() -> None:
     assert "binned" not in native.signal and native.altitude_m != small.altitude_m
 
 
+@pytest.mark.parametrize(("shape", "focal_px", "b"), [
+    ((256, 256), 221.7, 1), ((512, 512), 443.4, 2), ((288, 512), 455.0, 2), ((512, 288), 455.0, 2),
+    ((480, 640), 554.3, 2), ((240, 320), 277.1, 1), ((1080, 1920), 1143.9, 4),
+    ((720, 1280), 914.0, 4), ((128, 512), 900.0, 1), ((256, 256), 314.0, 2),
+    ((256, 256), 313.0, 1)])
+def test_a_long_focal_length_bins_frames_to_the_working_focal_length(shape, focal_px, b) -> None:
+    """At least the power of two that brings the focal length nearest the working one (222 px
+    at 256 px: a 60-degree view) in ratio, while the shorter side keeps half the scale; never
+    less than the frame's size asks for, and never for a working scale of 0."""
+    assert working_bin(*shape, 256, focal_px) == b
+    assert working_bin(*shape, 256, focal_px) >= working_bin(*shape, 256)
+    assert working_bin(*shape, 0, focal_px) == 1
+
+
+def test_frames_of_a_long_focal_length_read_as_their_binned_frames() -> None:
+    """A 16:9 crop of frames each of whose pixels was made four: its shorter side is under
+    twice the working scale, but its focal length is twice the working one, so the altimeter
+    bins it and reads the crop of the original frames to the bit (saying so); the same frames
+    said to have a short focal length (a wide view) are fitted as they are."""
+    frames, focal_px, camera_v = _linear_frames(3.0, 6.0, 0.5, 60.0, size=128)
+    small = np.ascontiguousarray(frames[:, 28:100])
+    big = np.repeat(np.repeat(small, 2, axis=1), 2, axis=2)
+    est = DispersionAltimeter(dispersion="gravity", working_px=128)
+    kw = {"fps": 30.0, "velocity_mps": camera_v}
+    want = est.estimate(small, focal_px=focal_px, **kw)
+    got = est.estimate(big, focal_px=2.0 * focal_px, **kw)
+    assert want.trusted and abs(want.altitude_m / 3.0 - 1) < 0.02
+    assert got.altitude_m == want.altitude_m and got.altitude_std_m == want.altitude_std_m
+    assert got.signal == want.signal + "+binned2" and got.trusted
+    assert "binned" not in est.estimate(big, focal_px=focal_px, **kw).signal
+
+
 @pytest.mark.parametrize("bad", [-1, 2.5])
 def test_a_bad_working_scale_is_refused(bad) -> None:
     with pytest.raises(ValueError, match="working_px must be an integer >= 0"):

@@ -11,6 +11,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
+from benchmodule import bench_module
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_foreign_sea.py"
 
@@ -291,3 +293,26 @@ def test_h264_coding_changes_the_frames_and_not_the_scene(tmp_path) -> None:
     assert 0.0 < err["12"] < err["30"] < 8.0
     bad = _run("--clips", "1", "--h264-crf", "60")
     assert bad.returncode == 2 and "--h264-crf must be within 0-51; got 60" in bad.stderr
+
+
+@pytest.mark.parametrize(("aspect", "shape"), [((16, 9), (512, 288)), ((4, 3), (512, 384)),
+                                              ((9, 16), (288, 512)), ((1, 1), (512, 512))])
+def test_a_frame_cropped_to_an_aspect_keeps_the_middle_and_the_longer_side(aspect,
+                                                                            shape) -> None:
+    """``--aspect``: a video camera's frame, the same pixels and optics (the focal length
+    quoted across the longer side)."""
+    fs = bench_module("bench_foreign_sea")
+    frames = np.arange(2 * 512 * 512, dtype=np.int64).reshape(2, 512, 512)
+    out = fs.crop_to_aspect(frames, aspect)
+    w, h = shape
+    assert out.shape == (2, h, w)
+    top, left = (512 - h) // 2, (512 - w) // 2
+    assert np.array_equal(out, frames[:, top:top + h, left:left + w])
+
+
+def test_a_bad_aspect_is_refused_in_one_line() -> None:
+    for bad in ("16x9", "16:0", "9:64", "a:b"):
+        res = _run("--clips", "1", "--rows", "exact10", "--aspect", bad)
+        assert res.returncode == 2
+        assert f"--aspect must be W:H, two whole numbers within 1:4-4:1; got {bad!r}" in (
+            res.stderr.strip().splitlines()[-1])

@@ -124,10 +124,9 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         degrees, from the frames' nadir (a gimbal's; an attitude's error the frames were
         levelled at); None: ``ATTITUDE_PRIOR_SD_DEG``, an attitude not known (:meth:`_level`).
     working_px : int
-        Frames whose shorter side is at least twice this are binned first (``b x b`` px
-        averaged, ``b`` the largest power of two up to ``MAX_BIN`` that leaves it at least
-        this; the focal length over ``b``): the band's limits in rad/px were set at this
-        scale (``WORKING_PX``).  The result's ``signal`` says ``+binned2``; 0 never bins.
+        The working scale (``WORKING_PX``; the band's limits in rad/px were set at it): frames
+        of twice its side, or of a much longer focal length, are binned first
+        (:func:`.signal.working_bin`; ``signal`` then says ``+binned2``); 0 never bins.
     """
 
     def __init__(self, *, dispersion: str = "gravity-capillary",
@@ -226,7 +225,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         DispersionResult
         """
         frames = np.asarray(frames)  # once: a list is not converted again for each try
-        b = working_bin(*frames.shape[1:3], self.working_px) if frames.ndim >= 3 else 1
+        focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
+        b = working_bin(*frames.shape[1:3], self.working_px, focal_px) if frames.ndim >= 3 else 1
         kw = {"fps": fps, "focal_px": focal_px, "velocity_mps": velocity_mps,
               "velocity_sigma_mps": velocity_sigma_mps, "yaw_rate_dps": yaw_rate_dps}
         res = self._estimate_at(frames, b, readout_s, **kw)

@@ -350,6 +350,18 @@ CORNER_TILES = 0.4
 #: or not, the same (2.04 / 2.12 %, trusted 0.20 / 0.23): frames are left as they are
 #: below twice the working scale.
 WORKING_PX = 256
+#: The working scale is a focal length too: the band was set on frames ``WORKING_PX`` wide
+#: over a 60-degree view, a focal length of ``WORKING_FOCAL_PER_PX * working_px`` (222 px).
+#: The image of a camera with a longer one (a narrower view, or a frame whose shorter side
+#: is not the side its field of view is quoted for: 4:3 and 16:9 video) moves more pixels a
+#: frame over the same sea, and the band then holds shorter waves, whose phase steps
+#: alias: frames are binned further by the power of two that brings the focal length
+#: nearest this in ratio (:func:`~.signal.working_bin`), but not below half ``working_px``
+#: on their shorter side.  Second generator at 512 px (f = 455 px), cropped to 512 x 288
+#: and 512 x 384, 1-s blind, fresh seeds 72200-72213 and 72300-72313 (28 clips):
+#: as they are, relative MAE 37.1 / 101.3 %, trusted 7 / 9 of 28; binned 2 x 2, 8.0 / 5.2 %,
+#: 15 / 15 (``docs/dispersion.md``, fifty-second session).
+WORKING_FOCAL_PER_PX = 3.0**0.5 / 2.0  # 1 / (2 tan 30 degrees)
 #: The largest binning: powers of two up to the block coder's lattice (``BLOCK_PERIOD_PX``),
 #: whose blocks then fall on whole bins (1080-line video: 4, 2160-line: 8).
 MAX_BIN = 8

@@ -15,6 +15,7 @@ from wavealt.altimetry.dispersion.constants import (
     MAD_TO_SD,
     MAX_BIN,
     NORMAL_SCORE_LEVELS,
+    WORKING_FOCAL_PER_PX,
 )
 
 
@@ -26,13 +27,22 @@ def _to_gray(frames: np.ndarray) -> np.ndarray:
     return frames.astype(np.float32) * scale
 
 
-def working_bin(h: int, w: int, working_px: int) -> int:
+def working_bin(h: int, w: int, working_px: int, focal_px: float | None = None) -> int:
     """The binning that brings ``h x w`` px frames to the working scale ``working_px``
     (``WORKING_PX``): the largest power of two, at most ``MAX_BIN``, that leaves the shorter
-    side at least ``working_px``; 1 for none (and always for ``working_px`` 0)."""
+    side at least ``working_px``; 1 for none (and always for ``working_px`` 0).  Given the
+    frames' ``focal_px``, at least the power of two that brings it nearest, in ratio, to the
+    working focal length ``WORKING_FOCAL_PER_PX * working_px`` while the shorter side keeps
+    half ``working_px`` (``WORKING_FOCAL_PER_PX``)."""
     b = 1
     while working_px and b < MAX_BIN and min(h, w) >= 2 * b * working_px:
         b *= 2
+    if focal_px is not None and working_px:
+        # nearest in ratio: binned once more while the focal length stays above the
+        # working one over sqrt(2)
+        least = WORKING_FOCAL_PER_PX * working_px / math.sqrt(2.0)
+        while b < MAX_BIN and focal_px / (2 * b) >= least and min(h, w) >= b * working_px:
+            b *= 2
     return b
 
 

@@ -23,6 +23,43 @@ def frames() -> tuple[np.ndarray, float]:
 
 
 
+def test_16_bit_grey_frames_keep_their_16_bits(tmp_path, run_cli, frames) -> None:
+    """A machine-vision camera's 16-bit grey PNG and TIFF frames are read to the bit, not
+    clipped at 255 as an 8-bit conversion does; waves within four 8-bit grey levels read as
+    the same frames given as floats.  A float TIFF, which has no scale, is refused in one
+    line naming it."""
+    from PIL import Image
+
+    from wavealt.altimetry.dispersion import estimate_altitude
+
+    clip, focal_px = frames
+    grey = clip.mean(axis=-1)
+    grey = (grey - grey.min()) / (grey.max() - grey.min())
+    faint = np.round(20000 + 1000 * grey).astype(np.uint16)  # 1000 / 257: 3.9 8-bit levels
+    for ext in ("png", "tif"):
+        folder = tmp_path / ext
+        folder.mkdir()
+        for i, frame in enumerate(faint):
+            Image.fromarray(frame).save(folder / f"frame_{i}.{ext}")
+        read = read_input(folder)
+        want = faint.astype(np.float32) / np.float32(65535.0)
+        assert read.shape == (*faint.shape, 3) and read.dtype == np.float32
+        assert all(np.array_equal(read[..., c], want) for c in range(3))
+    code, out, err = run_cli(["altitude", str(tmp_path / "png"), "--fps", "30",
+                              "--focal-px", str(focal_px), "--dispersion", "gravity", "--json",
+                              "--window", "12", "--velocity-mps", "0,0"])
+    assert code == 0, err
+    ref = estimate_altitude(np.repeat(want[..., None], 3, axis=3), fps=30.0,
+                            focal_px=focal_px, dispersion="gravity", velocity_mps=(0.0, 0.0))
+    assert json.loads(out)["altitude_m"] == ref.altitude_m
+    Image.fromarray(want[0]).save(tmp_path / "png" / "frame_99.tif")
+    with pytest.raises(ValueError, match="frame_99.tif: 32-bit float pixels have no scale"):
+        read_input(tmp_path / "png")
+    code, _, err = run_cli(["altitude", str(tmp_path / "png"), "--fps", "30",
+                            "--focal-px", str(focal_px)])
+    assert code != 0 and "frame_99.tif: 32-bit float pixels have no scale" in err
+
+
 def test_frame_folder_json(tmp_path, run_cli, frames) -> None:
     """Blind, 12 frames of 64 px at 3 m: the estimate is within 4 of its own sigmas of the
     truth, or it says it is not to be trusted."""
@@ -77,7 +114,8 @@ def long_frames() -> tuple[np.ndarray, float]:
     return generate_sequence(cfg.sample_scenario(0), cfg).clean, cfg.focal_px
 
 
-@pytest.mark.parametrize(("velocity", "mode"), [([], "blind"), (["--velocity-mps", "0,0"], "exact")])
+@pytest.mark.parametrize(("velocity", "mode"),
+                         [([], "blind"), (["--velocity-mps", "0,0"], "exact")])
 def test_a_trusted_estimate_is_the_true_altitude(tmp_path, run_cli, long_frames, velocity,
                                                  mode) -> None:
     """A hovering camera 3 m over still water: the estimate is trusted, within 5 % of 3 m

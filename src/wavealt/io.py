@@ -122,19 +122,40 @@ def decode_png(data: bytes, name: str) -> np.ndarray:
         raise ValueError(msg) from None
 
 
+#: Pillow's modes of 16-bit grey images (PNG, TIFF): a machine-vision camera's frames.
+GREY16_MODES = ("I;16", "I;16B", "I;16L", "I;16N")
+
+
 def read_png(path: Path) -> np.ndarray:
-    """Read an image file as ``(H, W, 3)`` float32 in [0, 1]."""
+    """Read an image file as ``(H, W, 3)`` float32 in [0, 1].  A 16-bit grey image keeps
+    its 16 bits (each value over 65535, in all three channels): converted to 8-bit RGB as
+    other modes are, every value above 255 would read as white."""
     path = Path(path)
     if not path.is_file():
         msg = f"image file not found: {path}"
         raise FileNotFoundError(msg)
     try:
         with Image.open(path) as im:
+            if im.mode in GREY16_MODES or im.mode in ("I", "F"):
+                grey = _grey16(np.asarray(im), im.mode, path)
+                return np.repeat(grey[..., None], 3, axis=2)
             arr = np.asarray(im.convert("RGB"), dtype=np.uint8)
     except (UnidentifiedImageError, OSError, SyntaxError) as exc:
         msg = f"cannot read image {path}: {exc}"
         raise ValueError(msg) from None
     return arr.astype(np.float32) / 255.0
+
+
+def _grey16(arr: np.ndarray, mode: str, path: Path) -> np.ndarray:
+    """A grey image of Pillow ``mode`` as float32 in [0, 1]: 16-bit values over 65535; a
+    32-bit integer image (mode ``I``, as some 16-bit files open) only where its values are
+    16-bit; a float image (mode ``F``) has no scale to read it by."""
+    if mode == "F" or (mode == "I" and (arr.min() < 0 or arr.max() > 65535)):
+        kind = "32-bit float" if mode == "F" else "32-bit integer"
+        msg = (f"cannot read image {path}: {kind} pixels have no scale to read them by; "
+               f"give 8- or 16-bit images")
+        raise ValueError(msg)
+    return arr.astype(np.float32) / np.float32(65535.0)
 
 
 def frame_files(folder: Path) -> list[Path]:

@@ -1629,28 +1629,6 @@ def test_frames_not_measured_at_the_working_scale_are_fitted_as_they_are() -> No
     assert abs(res.altitude_m / 12.0 - 1) < 0.02
 
 
-@pytest.mark.parametrize(("h", "wind", "speed", "direction"),
-                         [(10.0, 3.0, 0.5, 90.0), (0.8, 6.0, 1.5, 10.0)])
-def test_binned_frames_not_trusted_keep_the_fit_that_stands_higher(h, wind, speed,
-                                                                   direction) -> None:
-    """Blind, 10 frames of 512 px, neither fit trusted: of the fit of the binned frames and
-    the one of the frames binned half as much (here: as they are), the result is the one
-    that stands higher (a shell significant above the noise first, then graded), whichever
-    that is, and says which it is."""
-    frames, focal_px, _ = _linear_frames(h, wind, speed, direction, size=512, seed=1)
-    est = DispersionAltimeter(dispersion="gravity")
-    binned = est.estimate(bin_frames(frames, 2), fps=30.0, focal_px=focal_px / 2)
-    native = DispersionAltimeter(dispersion="gravity", working_px=0).estimate(
-        frames, fps=30.0, focal_px=focal_px)
-    res = est.estimate(frames, fps=30.0, focal_px=focal_px)
-    assert not binned.trusted and not res.trusted
-    if est._standing(native) > est._standing(binned):
-        assert res.altitude_m == native.altitude_m and res.signal == native.signal + "+finer"
-    else:
-        assert res.altitude_m == binned.altitude_m
-        assert res.signal == binned.signal + "+binned2"
-
-
 def test_the_shares_exponent_falls_with_the_clips_length_beyond_the_reference() -> None:
     from wavealt.altimetry.dispersion.constants import (
         SHARPNESS_FRAMES_POWER,

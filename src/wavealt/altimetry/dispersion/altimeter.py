@@ -190,7 +190,7 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         velocity searched jointly); **prior** (``velocity_sigma_mps > 0``: the velocity over
         the water within about ``3 velocity_sigma_mps`` of ``velocity_mps``, e.g. satellite
         navigation with the current unknown); **exact** (``velocity_sigma_mps = 0``).
-        Binned frames not trusted are fitted binned half as much; the better is kept (``+finer``).
+        Binned frames (``working_px``) not trusted are fitted binned half as much (``+finer``).
 
         Parameters
         ----------
@@ -231,10 +231,10 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
               "velocity_sigma_mps": velocity_sigma_mps, "yaw_rate_dps": yaw_rate_dps}
         res = self._estimate_at(frames, b, readout_s, **kw)
         if b > 1 and not res.trusted:
-            # not measured at the working scale: binned half as much, frames resolve waves half
-            # as long (high up); the fit that stands higher (:meth:`_standing`) is kept
+            # not measured at the working scale: frames binned half as much resolve waves
+            # half as long (high up, where the working scale's shortest turn slowly)
             finer = self._estimate_at(frames, b // 2, readout_s, **kw)
-            if self._standing(finer) > self._standing(res):
+            if finer.trusted:
                 finer.signal += "+finer"
                 return finer
         return res

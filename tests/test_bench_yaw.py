@@ -75,8 +75,9 @@ def test_the_second_sea_is_the_independent_generators_clip_turned() -> None:
     assert all(r["altitude_m"] == sc.altitude_m for r in rows)
     assert rows[2]["yaw_rate_dps"] == 10.0  # told: the rate given, taken as the truth
     assert not any("+binned" in r["signal"] for r in rows)
-    # at a working scale of half the camera, the windows are fitted binned by 2
-    binned = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second", working_px=88)
+    # at a working scale of about half the camera's (its side and its focal length), the
+    # windows are fitted binned by 2
+    binned = mod.run_sequence((3000, 2), (10.0,), 10, "exact", "second", working_px=120)
     assert [r["rate_dps"] for r in binned] == [r["rate_dps"] for r in rows]
     assert all("+binned2" in r["signal"] for r in binned)
 

@@ -60,6 +60,24 @@ def test_16_bit_grey_frames_keep_their_16_bits(tmp_path, run_cli, frames) -> Non
     assert code != 0 and "frame_99.tif: 32-bit float pixels have no scale" in err
 
 
+def test_16_bit_colour_frames_keep_their_16_bits(tmp_path) -> None:
+    """16-bit colour PNG and TIFF frames, which Pillow opens as 8-bit RGB, are read with
+    their lower 8 bits too, in RGB order."""
+    import cv2
+
+    rng = np.random.default_rng(5)
+    frames = rng.integers(0, 65536, size=(3, 32, 40, 3), dtype=np.uint16)
+    assert np.any(frames % 257)  # not 8-bit values scaled up: 8 bits could not hold them
+    for ext in ("png", "tif"):
+        folder = tmp_path / ext
+        folder.mkdir()
+        for i, frame in enumerate(frames):
+            assert cv2.imwrite(str(folder / f"f{i}.{ext}"), frame[..., ::-1])  # OpenCV: BGR
+        read = read_input(folder)
+        assert read.dtype == np.float32
+        assert np.array_equal(read, frames.astype(np.float32) / np.float32(65535.0))
+
+
 def test_frame_folder_json(tmp_path, run_cli, frames) -> None:
     """Blind, 12 frames of 64 px at 3 m: the estimate is within 4 of its own sigmas of the
     truth, or it says it is not to be trusted."""

@@ -151,11 +151,12 @@ Serafino, Lugni & Soldovieri (IEEE GRSL 2010), normalised scalar products with t
 Spencer, Shah & Guha (IEEE TIP 2006), image scale from dispersion.
 """
 
+from typing import Any
+
 # The names of the module this package was (importers, tests and monkeypatches use them).
 from wavealt.altimetry.dispersion.altimeter import (  # noqa: F401
     DispersionAltimeter,
     _one_blas_thread,
-    estimate_altitude,
 )
 from wavealt.altimetry.dispersion.constants import (  # noqa: F401
     DEGLINTS,
@@ -193,6 +194,20 @@ from wavealt.altimetry.dispersion.spectra import (  # noqa: F401
 )
 from wavealt.altimetry.dispersion.shake import image_shake
 from wavealt.altimetry.dispersion.warm import warm_up
+
+
+
+def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
+                      velocity_mps: tuple[float, float] | None = None,
+                      velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
+                      yaw_rate_dps: float | None = None, **kw: Any) -> DispersionResult:
+    """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
+    velocity_mps=, velocity_sigma_mps=, readout_s=, yaw_rate_dps=)``."""
+    return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,
+                                              velocity_mps=velocity_mps,
+                                              velocity_sigma_mps=velocity_sigma_mps,
+                                              readout_s=readout_s, yaw_rate_dps=yaw_rate_dps)
+
 
 __all__ = ["DISPERSIONS", "DispersionAltimeter", "DispersionResult", "deglint", "image_shake",
            "estimate_altitude", "reason_class", "warm_up"]

@@ -190,7 +190,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         velocity searched jointly); **prior** (``velocity_sigma_mps > 0``: the velocity over
         the water within about ``3 velocity_sigma_mps`` of ``velocity_mps``, e.g. satellite
         navigation with the current unknown); **exact** (``velocity_sigma_mps = 0``).
-        Binned frames (``working_px``) not trusted are fitted binned half as much (``+finer``).
+        Fits not trusted are made again: binned half as much (``+finer``, kept if trusted) or,
+        where the focal length is long, binned toward the working one (``+coarser``).
 
         Parameters
         ----------
@@ -226,10 +227,17 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         """
         frames = np.asarray(frames)  # once: a list is not converted again for each try
         focal_px = check_finite_number("focal_px", focal_px, low=0.0, low_open=True)
-        b = working_bin(*frames.shape[1:3], self.working_px, focal_px) if frames.ndim >= 3 else 1
+        shape = frames.shape[1:3] if frames.ndim >= 3 else (1, 1)
+        b, b_focal = (working_bin(*shape, self.working_px, f) for f in (None, focal_px))
         kw = {"fps": fps, "focal_px": focal_px, "velocity_mps": velocity_mps,
               "velocity_sigma_mps": velocity_sigma_mps, "yaw_rate_dps": yaw_rate_dps}
         res = self._estimate_at(frames, b, readout_s, **kw)
+        if b_focal > b and not res.trusted:
+            # a focal length long at this scale moves the image too many px a frame for the
+            # band: binned toward the working focal length, that fit is the result
+            coarser = self._estimate_at(frames, b_focal, readout_s, **kw)
+            coarser.signal += "+coarser"
+            return coarser
         if b > 1 and not res.trusted:
             # not measured at the working scale: frames binned half as much resolve waves
             # half as long (high up, where the working scale's shortest turn slowly)
@@ -487,14 +495,3 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
         fit = self._fit_blind(p, fps, focal_px, start["logh"], -start["u"], disk)
         return self._result(p, fit, t, fps, focal_px)
 
-
-def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
-                      velocity_mps: tuple[float, float] | None = None,
-                      velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,
-                      yaw_rate_dps: float | None = None, **kw: Any) -> DispersionResult:
-    """Convenience: ``DispersionAltimeter(**kw).estimate(frames, fps=, focal_px=,
-    velocity_mps=, velocity_sigma_mps=, readout_s=, yaw_rate_dps=)``."""
-    return DispersionAltimeter(**kw).estimate(frames, fps=fps, focal_px=focal_px,
-                                              velocity_mps=velocity_mps,
-                                              velocity_sigma_mps=velocity_sigma_mps,
-                                              readout_s=readout_s, yaw_rate_dps=yaw_rate_dps)

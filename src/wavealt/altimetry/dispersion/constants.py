@@ -355,12 +355,15 @@ WORKING_PX = 256
 #: The image of a camera with a longer one (a narrower view, or a frame whose shorter side
 #: is not the side its field of view is quoted for: 4:3 and 16:9 video) moves more pixels a
 #: frame over the same sea, and the band then holds shorter waves, whose phase steps
-#: alias: frames are binned further by the power of two that brings the focal length
-#: nearest this in ratio (:func:`~.signal.working_bin`), but not below half ``working_px``
-#: on their shorter side.  Second generator at 512 px (f = 455 px), cropped to 512 x 288
-#: and 512 x 384, 1-s blind, fresh seeds 72200-72213 and 72300-72313 (28 clips):
+#: alias.  Where the fit at the size rule's scale is not trusted, such frames are fitted
+#: again binned by the power of two that brings the focal length nearest this in ratio
+#: (:func:`~.signal.working_bin`), but not below half ``working_px`` on their shorter side,
+#: and that fit is the result (``+coarser``).  Second generator at 512 px (f = 455 px),
+#: cropped to 512 x 288 and 512 x 384, 1-s blind, clips 72200-72213 and 72300-72313 (28):
 #: as they are, relative MAE 37.1 / 101.3 %, trusted 7 / 9 of 28; binned 2 x 2, 8.0 / 5.2 %,
-#: 15 / 15 (``docs/dispersion.md``, fifty-second session).
+#: 15 / 15.  Binned first, the windows the frames as they are measured lost up to a point
+#: of median error; fitted again only where not trusted, they keep it (``docs/dispersion.md``,
+#: fifty-second session).
 WORKING_FOCAL_PER_PX = 3.0**0.5 / 2.0  # 1 / (2 tan 30 degrees)
 #: The largest binning: powers of two up to the block coder's lattice (``BLOCK_PERIOD_PX``),
 #: whose blocks then fall on whole bins (1080-line video: 4, 2160-line: 8).

@@ -33,7 +33,8 @@ def working_bin(h: int, w: int, working_px: int, focal_px: float | None = None) 
     side at least ``working_px``; 1 for none (and always for ``working_px`` 0).  Given the
     frames' ``focal_px``, at least the power of two that brings it nearest, in ratio, to the
     working focal length ``WORKING_FOCAL_PER_PX * working_px`` while the shorter side keeps
-    half ``working_px`` (``WORKING_FOCAL_PER_PX``)."""
+    half ``working_px``: the scale a fit not trusted at the size rule's is made again at
+    (``WORKING_FOCAL_PER_PX``)."""
     b = 1
     while working_px and b < MAX_BIN and min(h, w) >= 2 * b * working_px:
         b *= 2

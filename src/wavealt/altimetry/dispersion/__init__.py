@@ -196,7 +196,6 @@ from wavealt.altimetry.dispersion.shake import image_shake
 from wavealt.altimetry.dispersion.warm import warm_up
 
 
-
 def estimate_altitude(frames: Any, *, fps: float, focal_px: float,
                       velocity_mps: tuple[float, float] | None = None,
                       velocity_sigma_mps: float = 0.0, readout_s: float = 0.0,

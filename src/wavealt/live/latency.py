@@ -38,10 +38,9 @@ MIN_WINDOWS = 3
 #: The corner tiles' agreement on a shake (mean square over the noise of their mean,
 #: :func:`wavealt.altimetry.dispersion.jitter.common_shake`) before a window's shake is
 #: matched: half the altimeter's own bar, since the match itself rejects a shake the
-#: attitude does not explain.  Chosen on the tuning seeds (realistic 101 / 202, second
-#: generator 1000 / 2000, 40 sequences, 0.2-1 deg): against the altimeter's 8, windows
-#: measured 0.44-1.00 -> 0.60-1.00 (realistic) and 0.01-0.42 -> 0.07-0.51 (second
-#: generator), the largest error the same (30-35 ms); at 2 it reached 70 ms.
+#: attitude does not explain: more windows measure the delay than at the altimeter's bar,
+#: with no larger error, while a still lower bar admits shakes too faint to time
+#: (``docs/benchmarks.md``, twenty-sixth session).
 SHAKE_MIN_RATIO = 4.0
 #: A live stream measures every window until this many have measured the delay, then every
 #: ``MEASURE_EVERY``-th (the delay does not change; about 5 ms a 30-frame 256^2 window).

@@ -372,9 +372,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
                 # one that passes more of the tests (then the better graded) kept.  A chroma
                 # that a block coder's lattice marks (BLOCK_CODED_MIN_EXCESS) is not fitted:
                 # the coder quantises it coarsely on its 8-px blocks, which mix the short
-                # waves into false shells far below the truth (the realistic preset's JPEG
-                # chroma read 13.5 m as 1.06 m, trusted; docs/dispersion.md, sixteenth
-                # session), and the luminance is fitted alone.
+                # waves into false shells far below the truth, which can be trusted
+                # (docs/dispersion.md, sixteenth session), and the luminance is fitted alone.
                 chroma = self._chroma(arr, weights)
                 if lattice < 2 or block_excess(chroma, lattice) <= BLOCK_CODED_MIN_EXCESS:
                     res, p = self._fit_signal(chroma, "chroma", fps, focal_px, prior)
@@ -415,8 +414,8 @@ class DispersionAltimeter(_Signal, _Spectra, _Start, _Search, _Profile, _Trust, 
             res = self._aided(p, t, fps, focal_px, prior[:2])
             if self._shell_seen(res) < (True, TRUSTED_QUALITY) and p["corners"]:
                 # A fast drift carries the water across a corner tile within the clip (3 m/s
-                # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer.
-                # Realistic preset, 30 frames, 2.9 m at 2.9 m/s: +593 % flagged -> +0.3 %.
+                # at 3 m: 7.5 px per frame); the whole frame keeps it in view longer
+                # (docs/dispersion.md).
                 whole = self._periodogram(signal, corners=False)
                 alt = self._aided(whole, t, fps, focal_px, prior[:2])
                 if self._shell_seen(alt) > self._shell_seen(res):

@@ -91,13 +91,12 @@ class TiltFit:
         within the quantile of its ``tiles - 3`` degrees of freedom (three tiles, which it
         fits exactly, always), each tile's variance its noise's and the part of the oblique
         view's stretch the model does not hold (:func:`stretch_var_log`; at 15 degrees as
-        large as a tile's noise, and one tilted camera in three failed the test without
-        it).  Tiles that read a tilt's scales fit it within their noise;
+        large as a tile's noise, so that without it a tilted camera's tiles fail the
+        test).  Tiles that read a tilt's scales fit it within their noise;
         one tile's wrong peak does not, and the tilt it pulls from the others is no tilt
-        of the camera (realistic preset, cameras within 3 deg of nadir, exact 10 frames,
-        tuning seeds: 22 of 358 windows whose tiles hold a shell showed a significant tilt
-        of 4-31 deg; in 12 of them the tilted model left a chi-square of 8-98 on one degree
-        of freedom; ``docs/dispersion.md``, twenty-ninth session)."""
+        of the camera: a nearly level camera then shows a large, significant tilt that the
+        tilted model fits with a large chi-square (``docs/dispersion.md``, twenty-ninth
+        session)."""
         dof = self.tiles - 3
         return dof <= 0 or self.chi2_stretched <= chi2_quantile(dof, level)
 
@@ -148,10 +147,8 @@ def without_odd_tile(fits: list[tuple[float, float, float, float]], focal_px: fl
     within its quantile), and which lies off their mean by more than
     ``TILE_AGREEMENT_SIGMAS``.  Three tiles at three corners read one scale only if the
     camera is level (any tilt parts them), so a tilt is never taken for a tile's wrong
-    peak; a tilted camera's four tiles with one off are kept as they are.  Realistic
-    preset, tuning seeds 101 / 202 (cameras within 3 degrees of nadir, sampled at nadir):
-    23 of 800 windows (1-s blind and 10-frame exact) had such a tile, read at 0.50-0.92 or
-    1.11-1.69 of the altitude.  The levelling measures a tilt without it
+    peak; a tilted camera's four tiles with one off are kept as they are.  The levelling
+    measures a tilt without it
     (:meth:`~.levelling._Level._level`); the trust verdict keeps it, since an unseen turn
     of the camera also parts one tile from the others (``docs/dispersion.md``,
     thirty-fourth session)."""

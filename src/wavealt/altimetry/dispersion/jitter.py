@@ -4,8 +4,8 @@ A camera that rolls or pitches by a small angle ``a`` moves the whole image by a
 ``f a`` px (``f`` the focal length): half a degree is 2 px at a 60-degree view of 256 px.
 Over a second a camera on a vehicle without a gimbal shakes by that much, back and forth,
 and the sea's phase steps, which the fit reads as the waves' dispersion and the drift, are
-no longer steady: the realistic renderer's sea seen through half a degree of roll and
-pitch at 0.7-2 Hz read 16 % off (median, blind 1-s windows).
+no longer steady: half a degree of roll and pitch at 0.7-2 Hz throws a fit that takes
+them as steady far off (``docs/dispersion.md``, twenty-fifth session).
 
 The shake moves every spatial mode ``k`` of a tile by the same shift ``s_t``: its phase
 steps are ``psi_k - k . (s_{t+1} - s_t)``, ``psi_k`` the mode's own steady step (the waves

@@ -26,8 +26,8 @@ def _one_blas_thread() -> Any:
     """Context in which NumPy's BLAS runs on one thread.
 
     The matrix products of one window are small; threaded, OpenBLAS's workers keep
-    spinning after each product and fight other threads for the cores: on two cores the
-    median 10-frame window took 26 ms instead of 19 (p90 86 against 22 ms).
+    spinning after each product and fight other threads for the cores, which slows a
+    window, the slowest windows most.
     """
     from threadpoolctl import ThreadpoolController
 

@@ -4,8 +4,8 @@ A Hann-windowed tile's mode holds the sea's waves within about a bin and a half 
 weighted by the window's power response and by their own power: its phase step is theirs,
 power-weighted.  Where the sea's spectrum falls with the wavenumber the lower side weighs
 more, so a mode's waves step as those of a slightly longer wavelength than its bin's
-centre, and a fit that puts them at the centre reads a slower shell, a higher camera (the
-blind fit's +0.6-0.8 % on every renderer: ``docs/dispersion.md``, twenty-first and
+centre, and a fit that puts them at the centre reads a slower shell, a higher camera (a
+bias of the blind fit under a per cent: ``docs/dispersion.md``, twenty-first and
 twenty-eighth sessions).  To first order the shift is ``(1/3) bin^2 d log S / d k`` (the
 window's power response has a second moment of 1/3 bin^2); :func:`mode_shifts` takes it as
 the centroid of the 3 x 3 neighbouring bins, each weighted by the window's response and its

@@ -93,7 +93,7 @@ class _Level:
         signal.  A levelled fit with wave signal but no prominent peak is read (not trusted)
         even where the fit before it held one: the tilt the tiles show biases that fit
         toward the far side's scale, and the levelled view, resampled, flattens the peak
-        (tuning 2020, 14.8 degrees: +32 % as given, -1.8 % levelled).
+        (``docs/dispersion.md``, forty-second session).
         A tilt can smear the shell away (10-15 degrees change the scale by 20-30 % across
         the frame): a fit with wave signal but no prominent peak has its tiles searched
         over the whole range (each sees a fraction of the smear, :meth:`_corner_fits`), and

@@ -155,8 +155,8 @@ class _Profile(_VelocityMap):
         The per-mode phase steps of the cross-spectra are biased on rendered frames: the
         difference-frequency products of the non-linear optics (wave groups, which move at
         the drift plus half the phase speed) pull every measured step toward a slower shell,
-        and a slower shell plus more drift fits them (+10 to +40 % in altitude on the paper
-        renderer).  The periodogram separates the shell from those products once the clip
+        and a slower shell plus more drift fits them (by tens of per cent in altitude on
+        rendered frames).  The periodogram separates the shell from those products once the clip
         resolves them (about 1 s); along the profile, a drift that trades against altitude
         leaves a flat profile, which the quality and the mode groups' spread along it report
         (:meth:`_result`).  The profile follows the ridge from the phase-step fit
@@ -176,9 +176,8 @@ class _Profile(_VelocityMap):
         ``prior = (vx, vy, radius)``, m/s: the camera's velocity over the water lies within
         ``radius`` of ``(vx, vy)``.  The profile is the blind one; the prior chooses among its
         peaks (:meth:`_significant_peak`).  Keeping every velocity searched inside the disk
-        was tried and was worse than no prior at all (realistic preset, 10 frames, tuning
-        seed 202: relative MAE 58 / 48 % against 35 / 30 % blind): the ridge, pinned to the
-        disk's rim, led the continuation away from the shell.
+        does worse than no prior at all: the ridge, pinned to the disk's rim, leads the
+        continuation away from the shell (``docs/dispersion.md``, seventh session).
         """
         lo, hi = (math.log(a) for a in self.altitude_range_m)
         step = BLIND_PROFILE_STEP_LOG
@@ -344,7 +343,7 @@ class _Profile(_VelocityMap):
         The profile is the score maximised over the velocity at every altitude; the
         continuation finds a local maximum, and where it starts (from the phase-step
         start's velocity, which may lie far off) one point can hold a poor one, making a
-        prominent false peak beside it (a trusted 14 m for 5 m; ``docs/dispersion.md``).
+        prominent false peak beside it, which can be trusted (``docs/dispersion.md``).
         Searched again from a neighbour's velocity, a point's score can only rise.
         """
         for _ in range(len(grid)):
@@ -403,9 +402,9 @@ def rank_peaks(peaks: list[tuple[int, float, bool]], scan: np.ndarray, bar: floa
     The profile is the score, the clip's share that the shell explains, maximised over the
     velocity at each altitude: of two peaks that each stand out of its noise, the higher is
     the better fit.  Prominence measures how a peak stands out, not how much it explains:
-    ranked by it, a sea at 14.2 m whose profile rose to 0.0455 there and fell 3 % (5.3
-    sigma) to the top of the range lost to a bump of 0.0169 at 1.13 m that stood 2.4e-3
-    above the bottom end (realistic preset, seed 223 #99, 1-s blind, read -92 %;
+    ranked by it, the shell of a high sea, whose profile falls only a few per cent (yet
+    several sigma) from it to the top of the range, loses to a small bump near the bottom
+    of the range that explains far less but stands out more (a reading far below the truth;
     ``docs/dispersion.md``, fifty-first session).  A ridge that rises to an end of the range
     makes no peak there, a bump on it within the noise is not ranked by its height, and a
     peak beyond the range (the profile reaches past it to measure a peak's fall) is no

@@ -206,13 +206,13 @@ class _Search:
         one at the shrunk or the plain scan's peak (:meth:`_fit_aided`) where that one is
         trusted and better graded, or significant (``MIN_SIGNIFICANCE``) where the fit it
         would replace is not: a peak that scores no better than random phase steps tells
-        nothing of where the shell is (realistic preset, 10 frames, a calm sea at 9-15 m:
-        the weighted scan's peak near half the altitude, insignificant, where the plain
-        scan's is significant and within 5 %; ``docs/dispersion.md``, twenty-ninth
-        session).  A significant peak within ``EDGE_FACTOR`` of an end of the range does
-        not replace it: that is where slow content makes the scan rise to the end (the
-        estimate there is never trusted, and a whole-frame fit that reads the shell no
-        longer replaced a corner fit pinned to the top)."""
+        nothing of where the shell is (on a calm sea high up, in a short clip, the weighted
+        scan can peak, insignificantly, far below the shell where the plain scan's peak is
+        significant and holds it; ``docs/dispersion.md``, twenty-ninth session).  A
+        significant peak within ``EDGE_FACTOR`` of an end of the range does not replace it:
+        that is where slow content makes the scan rise to the end (the estimate there is
+        never trusted, and a corner fit pinned to the top, made significant, would not give
+        way to a whole-frame fit that reads the shell)."""
         fits = self._fit_aided(p, fps, focal_px, velocity_mps)
         res = self._result(p, fits[0], t, fps, focal_px)
         for fit in fits[1:]:
@@ -233,16 +233,15 @@ class _Search:
         makes it turn over the clip (:meth:`_mode_values`): when the camera drifts downwind,
         the Doppler shift cancels the waves' own motion on a band of modes, which then stand
         nearly still in the image and hold only the optics' slow products; unweighted, those
-        made the scan rise with no peak near the truth (paper renderer, 10 frames, 100
-        scenes: 6 errors of 30-95 % at 7-15 m clean).  The fine stage, on every mode and
-        unweighted, takes the highest point within +-4 coarse steps and refines it with a
-        parabola; the mode groups' spread there gives the uncertainty (:meth:`_result`).
-        Where the unweighted values rise through those steps with no peak (the nearly still
-        modes again), the fine stage is weighted too: paper renderer, 10 frames, 100 scenes
-        each of seeds 5 and 11, relative MAE clean 1.72 / 1.53 -> 1.49 / 1.08 %; such
-        estimates are flagged by the quality below.  The quality is the prominence of the
-        *unweighted* scan's peak at the estimate (none within two steps: no quality), so an
-        estimate that only the weighting found is not trusted.
+        make the scan rise with no peak near the truth (``docs/dispersion.md``).  The fine
+        stage, on every mode and unweighted, takes the highest point within +-4 coarse steps
+        and refines it with a parabola; the mode groups' spread there gives the uncertainty
+        (:meth:`_result`).  Where the unweighted values rise through those steps with no
+        peak (the nearly still modes again), the fine stage is weighted too
+        (``docs/dispersion.md``); such estimates are flagged by the quality below.  The
+        quality is the prominence of the *unweighted* scan's peak at the estimate (none
+        within two steps: no quality), so an estimate that only the weighting found is not
+        trusted.
 
         Returns the fit at the weighted scan's peak and, where a shrunk weighted scan (see
         below) or the plain scan peaks elsewhere, the fits there too; :meth:`_aided` grades
@@ -274,13 +273,13 @@ class _Search:
         wsum, wtot = np.sum(vals * wt, axis=1), wt.sum(axis=1)
         # The peak is the most prominent within the range (the scan reaches past it only to
         # measure the fall beside a peak near an end): with a fast drift, slow content that
-        # rides with the water raises a hump beyond it that hid the shell (4.6 m read 20 m).
+        # rides with the water raises a hump beyond it that can hide the shell.
         inr = {"near": 0.5 * (lo + hi), "within": 0.5 * (hi - lo) + step}
         i = _most_prominent(wsum / np.maximum(wtot, 1e-9), grid, lo - step, hi + step, **inr)[0]
         fits = [self._fine_aided(p, fps, focal_px, grid[i], step, u_of, scan, grid)]
         # The weighted mean of a candidate at which few modes turn rests on few modes: on
-        # small frames (128 px, 1-5 m) it made spurious peaks at 5-15 times the altitude, and
-        # confident errors of +300-600 %.  Pulled toward the plain scan's median by a tenth
+        # small frames (128 px, 1-5 m) it makes spurious peaks at several times the altitude,
+        # read with confidence.  Pulled toward the plain scan's median by a tenth
         # of the modes, the true peak stands out there; where that peak lies elsewhere it is
         # refined too, and kept when trusted and more so (:meth:`_aided`).
         n0 = AIDED_SHRINK_FRACTION * wt.shape[1]

@@ -91,9 +91,6 @@ def _clip_outliers(signal: np.ndarray, n_sigma: float,
     In the chroma signal the water's colour varies smoothly with the waves; whitecaps (white
     foam carried along by the water, not dispersive) and saturated glint (all channels at
     1) are far outliers of it.  Clipping them keeps their outline from posing as waves.
-    Measured on 30 paper-renderer scenes (aided, 256 px): relative MAE clean 4.2 -> 3.8 %,
-    glinty 14.8 -> 4.4 %; on 16 realistic clean scenes, confident (quality > 0.5) errors
-    above 10 % fell from 5 to 1.
     """
     med, mad = _robust_level(signal, 4_096) if level is None else level
     if mad <= 0:

@@ -147,8 +147,8 @@ class _Tiles:
         A lens's radial distortion (OpenCV's ``1 + k1 r^2``) changes the scale with the
         square of the distance from the centre.  The four corner tiles ``fits`` lie at one
         distance, so they read one scale and no tilt, and the fit, made of their
-        periodogram, reads theirs: an untold barrel lens (k1 = -0.1) read 5-17 % high at
-        1-3 % uncertainty, trusted (``docs/dispersion.md``, forty-ninth session).  The edge
+        periodogram, reads theirs: an untold barrel lens reads high at an uncertainty that
+        does not show it, and is trusted (``docs/dispersion.md``, forty-ninth session).  The edge
         tiles (:meth:`_edge_fits`) lie nearer the centre and read part of the change;
         their difference from the corners, on the square of the distance, says what the
         corners read beyond the centre's pinhole scale.  A tilt changes the scale linearly

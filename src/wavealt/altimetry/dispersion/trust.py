@@ -84,7 +84,7 @@ class _Trust:
 
         Aided, the groups' peaks are taken on the fine grid around the estimate.  Blind
         (``fit["ridge"]``), along the whole profile, the velocity re-fitted at every altitude
-        (on the fine grid alone the spread was 2-20 times too small), and each group counts
+        (on the fine grid alone the spread is far too small), and each group counts
         by its peak's curvature, as it counts in the summed profile whose peak the estimate
         is (:func:`~.search.weighted_spread`): a flat group puts its peak far off and says
         little.  Where every group sees the same flat ridge the spread stays small; the
@@ -116,8 +116,8 @@ class _Trust:
         else:
             sums = self._group_curves(labels, vals)
             ests = np.array([_parabolic_peak(fit["local"], row) for row in sums])
-        # the groups' spread, plus a floor: the bias the clip and the optics leave (0.2-0.4 %
-        # on an ideal camera, a few % at 6-15 m rendered; bench_dispersion.py), short clips more
+        # the groups' spread, plus a floor: the bias the clip and the optics leave (measured
+        # in ``docs/benchmarks.md``), short clips more
         floor = ((BLIND_SD_FLOOR_LOG if profile else SD_FLOOR_LOG)
                  * max(1.0, FULL_CLIP_FRAMES / t) ** 3)
         t_ref = t * min(1.0, REFERENCE_FPS / fps)  # as long, and as many frames (the band's)
@@ -266,8 +266,8 @@ class _Trust:
         taken from ``p`` where it holds them); None where they show no turn (``with_sd``:
         the rate and its standard error, deg/s).  A fit assumes
         one velocity over the frame; a turn gives each tile its own, and the shell the fit
-        finds is smeared or moved: 8.57 m read as 9.75 m at 3 deg/s, trusted, before this
-        test (``docs/dispersion.md``, twenty-third session)."""
+        finds is smeared or moved, and may be trusted at an altitude the clip does not show
+        (``docs/dispersion.md``, twenty-third session)."""
         tiles = _corners(signal, self._tile_fraction())
         shape = tiles[0].shape[1:]
         if min(shape) < 32:
@@ -291,8 +291,8 @@ class _Trust:
         The model holds one image scale over the frame: a camera looking straight down at a
         level sea.  A tilted camera sees the sea farther away on one side of the frame than
         on the other, and its fit reads an average of the scales, high by up to twice the
-        tilt's range factor (realistic preset, 10-15 degrees of tilt ignored, velocity
-        known: +10 to +19 %, at 1.4-2.9 % uncertainty); :meth:`_level` takes out a tilt the
+        tilt's range factor, at an uncertainty far smaller than that error
+        (``docs/dispersion.md``); :meth:`_level` takes out a tilt the
         tiles measure, and this judges what is left.  Where two tiles differ by more than
         ``TILE_AGREEMENT_SIGMAS`` of their combined uncertainty in log altitude, the frame's
         scale is not one, and the altitude is not trusted.  Where the tiles together scatter
@@ -301,8 +301,7 @@ class _Trust:
         trust bar is not trusted.  And the fit must read what its tiles read: where it lies
         more than ``TILE_AGREEMENT_SIGMAS`` from the tiles' mean (random effects, with their
         scatter), its peak is not the one the tiles that hold the waves show, but one the
-        others' content makes in their sum (a camera 1.2 m up read 1.72 m at 2.3 %, its two
-        tiles holding the waves 1.23 m each at 1-2 %)."""
+        others' content makes in their sum."""
         logs = [(lg, sd) for _, _, lg, sd in fits]
         tau = tile_scatter(logs)
         if logs:
@@ -337,10 +336,10 @@ class _Trust:
         """Widen, in place, the uncertainty of a fit whose attitude is unknown and was not
         levelled by what a tilt its corner tiles ``fits`` (:meth:`_corner_fits`, the first
         list) do not rule out moves it (the prior ``attitude_sigma_deg``): from three tiles
-        on, the tilt within their precision (:func:`.attitude.unlevelled_tilt_var_log`; one
-        8.7 degrees from nadir over a faint sea read 16 % high at 2.5 %), else the part they
-        cannot measure (:func:`.attitude.unmeasured_tilt_var_log`; one 13 degrees from nadir read
-        36 % high, at 1.4 %, from the one corner whose sea glittered).  Why the fit is no
+        on, the tilt within their precision (:func:`.attitude.unlevelled_tilt_var_log`), else
+        the part they cannot measure (:func:`.attitude.unmeasured_tilt_var_log`): a fit whose
+        waves come from part of the frame reads that part's scale, off by the tilt's range
+        factor at an uncertainty that does not show it.  Why the fit is no
         longer trusted where it passed the trust tests before and the wider interval fails
         the bar, else None."""
         # the corner tiles' places (:meth:`_corner_fits` cuts them so)
@@ -374,9 +373,8 @@ class _Trust:
         """``res``, a trusted fit of frames turned back at a yaw rate the corner tiles
         measured, judged again with the change to ``moved`` (the same frames turned back at
         one standard error more of rate) in its uncertainty, in quadrature in log altitude.
-        A rate a little off leaves a turn that moves the fit: held out, 8.57 m turning at
-        10 deg/s, measured as 7.9, read +11.4 % at sigma 2.9 % (``docs/dispersion.md``,
-        twenty-seventh session)."""
+        A rate a little off leaves a turn that moves the fit by more than the uncertainty of
+        the turned-back frames alone (``docs/dispersion.md``, twenty-seventh session)."""
         _widen(res, abs(math.log(moved.altitude_m / res.altitude_m)))
         return self._judge(res)
 

@@ -46,20 +46,19 @@ class _Turn:
         better (a higher significance against random phase steps), the turn is refuted:
         the tiles' phase steps also part where the image moves unevenly over the frame
         without a turn (a shear, one direction's velocity changing across the frame and the
-        other's not: still cameras of the realistic renderer, 2-8 deg/s), and turning a
-        still camera's frames back at such a rate smears the shell they hold.  The fit at
-        ``yaw`` is then finished and kept.  It is not trusted while its tiles show the turn
-        (its finish judges that), so the test decides the altitude read, not the trust.
+        other's not), and turning a still camera's frames back at the rate the tiles then
+        read smears the shell they hold.  The fit at ``yaw`` is then finished and kept.  It
+        is not trusted while its tiles show the turn (its finish judges that), so the test
+        decides the altitude read, not the trust.
         A turn is refuted too where the frames turned back hold the shell only levelled and
         the frames as they are hold it without a tilt.  A rate off by ``d`` moves each
         corner tile's image by ``d`` times its lever, opposite at opposite corners, which
         the tiles, fitted at one velocity, read as scales that change linearly across the
         frame: a tilt's pattern.  A real turn shows that pattern in the frames as they are
         and loses it turned back; a turn measured where there is none puts it into the
-        frames turned back, and the levelling reads it as a tilt (a still camera, turned
-        back at 1.8 deg/s, levelled at 13 degrees, read -8 % at sigma 2.4 %;
-        ``docs/dispersion.md``, forty-fourth session).  Neither turn nor tilt is then
-        needed to explain the frames as they are.
+        frames turned back, and the levelling reads it as a tilt (``docs/dispersion.md``,
+        forty-fifth session).  Neither turn nor tilt is then needed to explain the frames as
+        they are.
         """
         saved = ROLLING.get()  # a pass's rolling-shutter fit sets its own
         res = self._estimate(**again, yaw_rate_dps=yaw + turned[0], yaw_pass=yaw_pass + 1)
@@ -93,12 +92,11 @@ class _Turn:
 
         The shake is read on the corner tiles' modes, each tile's reading off by its noise;
         a reading a little off leaves a shake that can still make a shell, away from the
-        altitude (a degree of shake at 5.0 m read 4.36 m at sigma 3.2 %, the shake 0.36 px
-        rms off the truth; ``docs/dispersion.md``, thirty-sixth session).  The frames are
-        fitted again twice, the first reading taken one realisation of its noise off
-        (:func:`.jitter.shake_noise`), either way, and the larger change of the altitude
-        joins the uncertainty in quadrature in log altitude (as a yaw rate's does,
-        :meth:`_rate_uncertain`)."""
+        altitude and with an uncertainty that does not cover it (``docs/dispersion.md``,
+        thirty-seventh session).  The frames are fitted again twice, the first reading
+        taken one realisation of its noise off (:func:`.jitter.shake_noise`), either way,
+        and the larger change of the altitude joins the uncertainty in quadrature in log
+        altitude (as a yaw rate's does, :meth:`_rate_uncertain`)."""
         if not (res.trusted and res.shake_px > 0.0) or SHAKE_OFF.get():
             return res
         moved = []

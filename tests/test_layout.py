@@ -1,10 +1,12 @@
 """The package's layout: data flows one way (sim -> dataset -> deglint -> altimetry ->
 evaluation -> report -> cli, with io, camera and _checks under every stage), no import cycle
-(imports inside functions count), no module over 500 lines."""
+(imports inside functions count), no module over 500 lines, docstrings that state the method
+rather than benchmark history."""
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import wavealt
@@ -16,6 +18,14 @@ RANK = {"__init__": 0, "_checks": 0, "io": 1, "framesource": 1, "camera": 1, "si
         "dataset": 3, "deglint": 4, "plots": 5, "altimetry": 5, "live": 6, "evaluation": 7,
         "report": 8, "cli": 9, "__main__": 10}
 MAX_LINES = 500
+#: What benchmark history looks like in prose (STYLE.md: docstrings carry the method and its
+#: sources; seeds, windows and before/after figures belong in docs/): a benchmark window
+#: ("seed 223 #99", "#13 clean"), a before/after MAE, the seeds a rule was tuned or held out
+#: on, a count of benchmark windows or scenes.
+HISTORY = [re.compile(p) for p in (
+    r"\bseeds? \d+(?: ?/ ?\d+)*,? #\d+", r"(?<![\w`])#\d+ (?:clean|glinty)\b",
+    r"relative MAE[^.]*?\d(?:\.\d+)? ?%?\s*(?:->|\u2192)", r"\btuning seeds? \d+",
+    r"\bheld[- ]out seeds? \d+", r"\b\d+ of \d+ (?:windows|scenes|tiles)\b")]
 
 
 def _module_name(path: Path) -> str:
@@ -92,6 +102,18 @@ def test_no_module_over_500_lines() -> None:
     long = {str(p.relative_to(ROOT)): n for p in ROOT.rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert long == {}
+
+
+def test_docstrings_state_the_method_not_benchmark_history() -> None:
+    found = []
+    for path in ROOT.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                 ast.AsyncFunctionDef)):
+                doc = " ".join((ast.get_docstring(node, clean=False) or "").split())
+                found += [f"{path.relative_to(ROOT)} {getattr(node, 'name', '')}: {m.group()}"
+                          for pat in HISTORY for m in pat.finditer(doc)]
+    assert found == [], "move these to docs/dispersion.md and point there: " + "; ".join(found)
 
 
 def test_no_plain_result_file_over_100_kb() -> None:

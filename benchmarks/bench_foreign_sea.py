@@ -5,7 +5,7 @@
         [--max-current 1.0] [--max-tilt-deg 0] [--sky gradient|cie|clouds]
         [--camera rolling,blur,autoexposure] [--tell-readout] [--depth-m D|LO,HI]
         [--tell-depth] [--one-way] [--supersample N] [--attitude-sigma-deg S] [--h264-crf C]
-        [--lens-k1 K [--tell-calibration]]
+        [--lens-k1 K [--tell-calibration]] [--choppy L]
         [--save-clips DIR] [--self-check]
 
 The generator is written from the physics alone; it shares no code with ``wavealt.sim``.
@@ -19,6 +19,10 @@ The generator is written from the physics alone; it shares no code with ``waveal
   water (``d`` infinite) unless ``--depth-m`` gives the water a finite depth (Lamb 1932,
   §228 and §267), in which the wavenumber spectrum keeps its shape (Kitaigorodskii, Krasitskii
   & Zaslavskii, J. Phys. Oceanogr. 1975: the saturation range in k does not depend on depth).
+* With ``--choppy L`` the water moves on its orbits (first-order Lagrangian, the Gerstner
+  sea; Tessendorf's "choppy waves"): each surface point is carried sideways by L times the
+  linear field's displacement, so crests sharpen, troughs broaden and every wave carries
+  harmonics bound to it (:func:`_lagrangian`); L = 1 is the physical orbit.
 * Motion, exact, as spectral phase: a component k has phase ``k.x - (omega + k.current) t``
   and the frame at t samples the sea at ``x + drift t``: the camera's velocity over the water
   is ``drift - current``.
@@ -123,6 +127,13 @@ CAMERA_EFFECTS = ("rolling", "blur", "autoexposure")
 #: time between them: 0.6 % of the texture at most at 4 m with a 0.7 m/s drift; 2.5 % at 4 ms)
 SUB_STEP_S = 0.002
 CIE_CLEAR = (-1.0, -0.32, 10.0, -3.0, 0.45)  # a, b, c, d, e of type 12
+#: the Lagrangian sea (--choppy): fixed-point steps tracing a pixel's point back to the
+#: particle there (each shrinks the error by about the orbits' strain, |grad D| ~ the slope),
+#: and the least Jacobian ``det(I + grad D)`` kept where the surface would fold (a crest
+#: breaking; its slopes, held finite, stay steep)
+LAGRANGE_ITERATIONS = 8
+FOLD_MIN = 0.05
+MAX_CHOPPY = 1.5
 
 Vec = tuple[float, float]
 
@@ -171,6 +182,7 @@ class Scene:
     ae_jitter: float = 0.0  # ... and the sd of its log gain's jitter a frame
     depth_m: float = math.inf  # the water's depth (inf: deep water)
     lens_k1: float = 0.0  # the lens's radial distortion (OpenCV's k1; 0: a pinhole)
+    choppy: float = 0.0  # the orbits' horizontal share (0: the linear, Eulerian sea; 1: Gerstner)
 
     @property
     def focal_px(self) -> float:
@@ -345,7 +357,7 @@ def slope_frames(sc: Scene, amp: np.ndarray, n_frames: int,
     step_p, step_q = np.exp(1j * (adv - w) / FPS), np.exp(1j * (adv + w) / FPS)
     out = np.empty((n_frames, SIZE, SIZE), np.complex128)
     for t in range(n_frames):
-        out[t] = _synthesise(p + q, points)
+        out[t] = _synthesise(p + q, points, sc)
         p *= step_p
         q *= step_q
     return out.real, out.imag
@@ -365,9 +377,13 @@ def _slope_spectra(sc: Scene, amp: np.ndarray) -> tuple[np.ndarray, ...]:
     return p, q, adv, w
 
 
-def _synthesise(spec: np.ndarray, points: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+def _synthesise(spec: np.ndarray, points: tuple[np.ndarray, np.ndarray] | None,
+                sc: Scene | None = None) -> np.ndarray:
     """``sx + i sy`` of the slope spectrum ``spec``: the centre crop, or at ``points`` (grid
-    column and row of each pixel) of the periodic grid, linearly interpolated."""
+    column and row of each pixel) of the periodic grid, linearly interpolated; with
+    ``sc.choppy`` the surface of the Lagrangian sea (:func:`_lagrangian`)."""
+    if sc is not None and sc.choppy:
+        return _lagrangian(spec, points, sc)
     if points is None:
         lo = (GRID - SIZE) // 2
         rows = sfft.ifft(spec, axis=0, norm="forward")[lo:lo + SIZE]
@@ -378,6 +394,48 @@ def _synthesise(spec: np.ndarray, points: tuple[np.ndarray, np.ndarray] | None) 
     out.real = ndimage.map_coordinates(field.real, at, order=1, mode="grid-wrap")
     out.imag = ndimage.map_coordinates(field.imag, at, order=1, mode="grid-wrap")
     return out
+
+
+def _lagrangian(spec: np.ndarray, points: tuple[np.ndarray, np.ndarray] | None,
+                sc: Scene) -> np.ndarray:
+    """``sx + i sy`` of a sea whose water moves on its orbits (first-order Lagrangian, the
+    Gerstner sea of Tessendorf's "choppy waves"): the particle at rest at ``x0`` lies at
+    ``x0 + D(x0)``, ``D = choppy * sum i k/|k| H(k) exp(i k.x0)`` (``H`` the height
+    spectrum, ``spec = i (kx + i ky) H``), at height ``eta(x0)``; ``choppy = 1`` is the
+    physical orbit (a wave ``A cos(k x0 - w t)`` at ``x0 - A sin(k x0 - w t)``: crests
+    sharp, troughs broad, its harmonics bound to it).  Each pixel's point ``x`` is traced
+    back to its ``x0`` by fixed-point iteration (``x0 = x - D(x0)``; ``|grad D|``, about
+    the slopes, is well below 1), and the surface's slope there is ``M^-1 grad eta`` with
+    ``M = I + grad D`` (the chain rule through ``x0 -> x``); where the surface would fold
+    (``det M`` near 0: a breaking crest) ``det M`` is held at ``FOLD_MIN``."""
+    kx, ky = wavenumbers(sc)
+    k = np.hypot(kx, ky)
+    kk = np.where(k > 0, k, 1.0)
+    height = np.where(k > 0, spec / (1j * (kx + 1j * ky) + (k == 0)), 0.0)
+    lam = sc.choppy
+    fields = [sfft.ifft2(s, norm="forward") for s in (
+        spec,                                          # eta_x + i eta_y
+        lam * spec / kk / sc.gsd,                      # (Dx + i Dy) in grid points
+        -lam * (kx**2 + 1j * ky**2) / kk * height,     # dDx/dx + i dDy/dy
+        -lam * kx * ky / kk * height)]                 # dDx/dy (= dDy/dx)
+    if points is None:
+        lo = (GRID - SIZE) // 2
+        row, col = np.mgrid[lo:lo + SIZE, lo:lo + SIZE].astype(np.float64)
+    else:
+        col, row = points
+
+    def at(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return ndimage.map_coordinates(field, [y, x], order=1, mode="grid-wrap")
+
+    x0, y0 = col, row
+    for _ in range(LAGRANGE_ITERATIONS):
+        x0 = col - at(fields[1].real, x0, y0)
+        y0 = row - at(fields[1].imag, x0, y0)
+    p, q = at(fields[0].real, x0, y0), at(fields[0].imag, x0, y0)
+    a, b = at(fields[2].real, x0, y0), at(fields[2].imag, x0, y0)
+    c = at(fields[3].real, x0, y0)
+    det = np.maximum((1 + a) * (1 + b) - c * c, FOLD_MIN)
+    return ((1 + b) * p - c * q) / det + 1j * ((1 + a) * q - c * p) / det
 
 
 def slopes_at(sc: Scene, amp: np.ndarray, times: np.ndarray,
@@ -397,12 +455,12 @@ def slopes_at(sc: Scene, amp: np.ndarray, times: np.ndarray,
         step_p, step_q = np.exp(1j * (adv - w) * gaps[0]), np.exp(1j * (adv + w) * gaps[0])
     for i, t in enumerate(times):
         if even:
-            out[i] = _synthesise(p + q, points)
+            out[i] = _synthesise(p + q, points, sc)
             p *= step_p
             q *= step_q
         else:
             out[i] = _synthesise(p * np.exp(1j * (adv - w) * t) + q * np.exp(1j * (adv + w) * t),
-                                 points)
+                                 points, sc)
     return out.real, out.imag
 
 
@@ -642,6 +700,8 @@ SUPERSAMPLE = 1
 #: altitude --calibration`` turns them)
 LENS_K1 = 0.0
 TELL_CALIBRATION = False
+#: the water's orbits' horizontal share (``--choppy``, :func:`_lagrangian`; 0: the linear sea)
+CHOPPY = 0.0
 #: the most radial distortion ``--lens-k1`` takes: a wide drone lens left uncorrected (the
 #: model's radius ``r (1 + k1 r^2)`` folds at ``2 / (3 sqrt(-3 k1))`` of the focal length,
 #: 1.11 at -0.12, beyond the corner of a 70-degree frame at 0.99)
@@ -651,7 +711,7 @@ MAX_LENS_K1 = 0.12
 def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
              h264_crf: int | None = None, attitude_sigma_deg: float | None = None,
              supersample: int = 1, lens_k1: float = 0.0,
-             tell_calibration: bool = False) -> None:
+             tell_calibration: bool = False, choppy: float = 0.0) -> None:
     """Render ``size``-px frames over the same field of view (``--size``; the sea's grid
     grows with them, its margin around the frame in the same proportion), ``fps`` of them a
     second (``--fps``; a row keeps its frame count, so its clip lasts ``frames / fps`` s),
@@ -659,11 +719,12 @@ def set_size(size: int, working_px: int | None = None, fps: float = 30.0,
     H.264 video at ``h264_crf`` (``--h264-crf``; None: 8-bit frames), each pixel the mean
     of ``supersample`` x ``supersample`` radiance samples (the sea rendered at
     ``size * supersample`` px, :data:`SUPERSAMPLE`), through a lens of radial distortion
-    ``lens_k1``, told (``tell_calibration``) or not (:data:`LENS_K1`); also each worker's
+    ``lens_k1``, told (``tell_calibration``) or not (:data:`LENS_K1`), over a sea whose
+    orbits have the horizontal share ``choppy`` (:data:`CHOPPY`); also each worker's
     initializer."""
     global SIZE, GRID, WORKING_PX, FPS, H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE, LENS_K1
-    global TELL_CALIBRATION
-    LENS_K1, TELL_CALIBRATION = float(lens_k1), bool(tell_calibration)
+    global TELL_CALIBRATION, CHOPPY
+    LENS_K1, TELL_CALIBRATION, CHOPPY = float(lens_k1), bool(tell_calibration), float(choppy)
     size *= supersample
     SIZE, GRID, WORKING_PX, FPS = size, GRID_PER_SIZE * size // 256, working_px, float(fps)
     H264_CRF, ATTITUDE_SIGMA_DEG, SUPERSAMPLE = h264_crf, attitude_sigma_deg, supersample
@@ -700,7 +761,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
     from ``depth_m``, :func:`draw_scene`); ``one_way``: a sea running one way; ``aspect``:
     the frames cropped to this width : height (:func:`crop_to_aspect`)."""
     sc = replace(draw_scene(seed, max_current, max_tilt_deg, sky, camera, depth_m, one_way),
-                 lens_k1=LENS_K1)
+                 lens_k1=LENS_K1, choppy=CHOPPY)
     altimeter = _altimeter(sc.depth_m if tell_depth and math.isfinite(sc.depth_m) else None)
     frames, contrast = render_clip(sc)
     truth = {**asdict(sc), "focal_px": frame_focal_px(sc), "over_water": sc.over_water,
@@ -721,7 +782,7 @@ def evaluate_clip(seed: int, rows: tuple[str, ...], save_dir: str | None,
     base = {k: truth[k] for k in ("seed", "altitude_m", "u10", "hfov_deg", "drift", "current",
                                   "glinty", "jpeg_quality", "texture_dn", "noise_dn",
                                   "tilt_deg", "tilt_toward", "readout_s", "shutter_s",
-                                  "ae_rate", "ae_jitter", "depth_m", "lens_k1")}
+                                  "ae_rate", "ae_jitter", "depth_m", "lens_k1", "choppy")}
     base["saturated_share"] = saturated
     velocity = mode_velocity(sc, prior_sigma)
     records = []
@@ -972,6 +1033,29 @@ def self_check() -> bool:
     pin = pixel_slopes(base)[0][0] * base.focal_px + (SIZE - 1) / 2
     report("lens distortion", lens_err < 1e-6 and float(np.max(np.abs(pin - np.arange(SIZE))))
            < 1e-9, f"pixel rays projected back by OpenCV: {lens_err:.1e} px at most")
+    # (10) the Lagrangian sea: one wave ``A cos(k x0)`` of steepness 0.3 along x, its water
+    # on Gerstner's orbits (choppy 1), against the curve ``x = x0 - A sin(k x0)``, whose
+    # slope is ``-A k sin / (1 - A k cos)`` (its steepest 1 / sqrt(1 - 0.3^2) = 1.048 times the
+    # linear wave's); choppy 0 is the linear sea to the bit
+    one = np.zeros((GRID, GRID), complex)
+    k_one = float(wavenumbers(base)[0][0, 10])
+    one[0, 10] = 0.3 / k_one
+    lin = slope_frames(base, one.copy(), 1)[0][0]
+    same = float(np.max(np.abs(slope_frames(replace(base, choppy=0.0), one.copy(), 1)[0][0]
+                               - lin)))
+    gx = slope_frames(replace(base, choppy=1.0), one.copy(), 1)[0][0]
+    theta = np.linspace(-math.pi, math.pi, 20001)
+    x_of = theta / k_one - 0.3 / k_one * np.sin(theta)
+    curve = -0.3 * np.sin(theta) / (1 - 0.3 * np.cos(theta))
+    cols = ((GRID - SIZE) // 2 + np.arange(SIZE)) * base.gsd
+    wrapped = np.mod(cols + math.pi / k_one, 2 * math.pi / k_one) - math.pi / k_one
+    want = np.interp(wrapped, x_of, curve)
+    gerstner = float(np.max(np.abs(gx[SIZE // 2] - want)))
+    report("Lagrangian (Gerstner) sea", same == 0.0 and gerstner < 0.003
+           and float(np.max(gx)) > 1.04 * float(np.max(lin)),
+           f"one wave of steepness 0.3: slope off the curve by {gerstner:.1e} at most; its "
+           f"steepest slope {float(np.max(gx)):.3f} against the linear sea's "
+           f"{float(np.max(lin)):.3f}")
     t0 = time.perf_counter()
     render_clip(draw_scene(1))
     print(f"INFO render of a 30-frame clip: {time.perf_counter() - t0:.2f} s")
@@ -1037,6 +1121,11 @@ def main() -> int:
     ap.add_argument("--tell-calibration", action="store_true",
                     help="with --lens-k1: the frames turned to a pinhole's view by the "
                          "lens's calibration first, as --calibration does")
+    ap.add_argument("--choppy", type=float, default=0.0, metavar="L",
+                    help="a sea whose water moves on its orbits (first-order Lagrangian: "
+                         "each surface point carried sideways by L times the linear field's "
+                         "displacement; 1: the Gerstner sea, crests sharp and troughs broad; "
+                         f"0-{MAX_CHOPPY:g}); default 0, the linear sea")
     ap.add_argument("--supersample", type=int, default=1, metavar="N",
                     help="each pixel the mean of N x N radiance samples (a pixel integrates "
                          "the light over its area; 1: one sample at its centre, the default)")
@@ -1103,12 +1192,14 @@ def main() -> int:
         ap.error(f"--lens-k1 must be within +-{MAX_LENS_K1:g}; got {a.lens_k1:g}")
     if a.tell_calibration and a.lens_k1 == 0.0:
         ap.error("--tell-calibration needs --lens-k1")
+    if not 0.0 <= a.choppy <= MAX_CHOPPY:
+        ap.error(f"--choppy must be within 0-{MAX_CHOPPY:g}; got {a.choppy:g}")
     try:
         aspect = None if a.aspect is None else parse_aspect(a.aspect)
     except ValueError as exc:
         ap.error(str(exc))
     set_size(a.size, a.working_px, a.fps, a.h264_crf, a.attitude_sigma_deg, a.supersample,
-             a.lens_k1, a.tell_calibration)
+             a.lens_k1, a.tell_calibration, a.choppy)
     if a.save_clips:
         Path(a.save_clips).mkdir(parents=True, exist_ok=True)
     seeds = range(a.seed, a.seed + a.clips)
@@ -1124,7 +1215,8 @@ def main() -> int:
                                                                      a.attitude_sigma_deg,
                                                                      a.supersample,
                                                                      a.lens_k1,
-                                                                     a.tell_calibration))
+                                                                     a.tell_calibration,
+                                                                     a.choppy))
     with pool_of() if a.workers > 1 else nullcontext() as pool:
         results = pool.imap_unordered(job, seeds) if pool else map(job, seeds)
         for recs in tqdm(results, total=len(seeds), desc="clips", file=sys.stderr):
@@ -1139,7 +1231,7 @@ def main() -> int:
                "tell_depth": a.tell_depth, "one_way": a.one_way, "size": a.size,
                "aspect": a.aspect,
                "supersample": a.supersample, "lens_k1": a.lens_k1,
-               "tell_calibration": a.tell_calibration,
+               "tell_calibration": a.tell_calibration, "choppy": a.choppy,
                "working_px": a.working_px,
                "h264_crf": a.h264_crf, "attitude_sigma_deg": a.attitude_sigma_deg,
                "fps": a.fps,

@@ -28,13 +28,14 @@ def test_the_generators_physics_checks_pass() -> None:
     rays (level: the nadir crop itself; tilted: the axis meets the sea H tan(tilt) away),
     the CIE clear sky's luminance against the standard's formula, the camera effects
     (phases taken whole or stepped, a rolling shutter's row against a direct render,
-    automatic exposure's gains), the cumulus deck's cover, and a distorting lens's pixel
-    rays against OpenCV's own projection, at 30 and 60 frames/s."""
+    automatic exposure's gains), the cumulus deck's cover, a distorting lens's pixel
+    rays against OpenCV's own projection, and the Lagrangian sea's one wave against
+    Gerstner's curve, at 30 and 60 frames/s."""
     for fps in ("30", "60"):  # at another frame rate too (--fps)
         res = _run("--self-check", "--fps", fps)
         assert res.returncode == 0, res.stdout + res.stderr[-2000:]
         lines = res.stdout.splitlines()
-        assert sum(line.startswith("PASS") for line in lines) == 9
+        assert sum(line.startswith("PASS") for line in lines) == 10
         assert not any(line.startswith("FAIL") for line in lines)
     bad = _run("--self-check", "--fps", "2")
     assert bad.returncode == 2 and "--fps must be within 5-240; got 2" in bad.stderr
@@ -187,6 +188,57 @@ def test_a_lens_that_distorts_changes_the_frames_and_not_the_scene(tmp_path) -> 
                           (("--tell-calibration",), "--tell-calibration needs --lens-k1")):
         bad = _run("--clips", "1", *args)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
+
+
+def test_a_lagrangian_sea_moves_the_surface_and_not_the_scene(tmp_path) -> None:
+    """``--choppy``: the scene is drawn as without it (its truth the same but for the
+    choppiness and what the sensor sees), its frames differ; the surface a pixel sees is
+    the linear sea's carried on the orbits: two waves, a long one carrying a short one,
+    show the short wave's crests moved by the long one's displacement at each pixel (the
+    fixed-point trace back to the particle); a choppiness beyond the range is refused in
+    one line."""
+    truths = {}
+    for name, extra in (("linear", ()), ("choppy", ("--choppy", "1"))):
+        out = tmp_path / f"{name}.json"
+        res = _run("--clips", "1", "--seed", "3", "--rows", "exact10", *extra,
+                   "--save-clips", str(tmp_path / name), "--out", str(out))
+        assert res.returncode == 0, res.stderr[-2000:]
+        run = json.loads(out.read_text())
+        assert run["choppy"] == (1.0 if name == "choppy" else 0.0)
+        assert all(r["choppy"] == run["choppy"] for r in run["records"])
+        truths[name] = (json.loads((tmp_path / name / "clip3.json").read_text()),
+                        np.load(tmp_path / name / "clip3.npy"))
+    sensed = ("choppy", "texture_dn", "noise_dn")
+    (lin, lin_frames), (chop, chop_frames) = truths["linear"], truths["choppy"]
+    assert {k: v for k, v in lin.items() if k not in sensed} == {
+        k: v for k, v in chop.items() if k not in sensed}
+    assert not np.array_equal(lin_frames, chop_frames)
+    # a short wave (grid bin 40 along x) on a long one (bin 4): the surface at a pixel x is
+    # the particle's x0 with x0 + D(x0) = x, D = -sum A sin(k x0) over both waves, and its
+    # slope -sum A k sin(k x0) / (1 - sum A k cos(k x0)) (Gerstner's curve of two waves);
+    # the short wave's crests ride the long one's orbits, which moves them by more than the
+    # tolerance many times over
+    fs = bench_module("bench_foreign_sea")
+    from dataclasses import replace
+
+    sc = replace(fs.draw_scene(7), choppy=1.0)
+    kx = fs.wavenumbers(sc)[0][0]
+    amp = np.zeros((fs.GRID, fs.GRID), complex)
+    waves = ((4, 0.15 / kx[4]), (40, 0.01 / kx[40]))  # (bin, amplitude): slopes 0.15, 0.01
+    for b, a in waves:
+        amp[0, b] = a
+    got = fs.slope_frames(sc, amp.copy(), 1)[0][0][fs.SIZE // 2]
+    x = ((fs.GRID - fs.SIZE) // 2 + np.arange(fs.SIZE)) * sc.gsd
+    x0 = x.copy()
+    for _ in range(60):
+        x0 = x + sum(a * np.sin(kx[b] * x0) for b, a in waves)
+    want = -sum(a * kx[b] * np.sin(kx[b] * x0) for b, a in waves) / (
+        1 - sum(a * kx[b] * np.cos(kx[b] * x0) for b, a in waves))
+    assert np.max(np.abs(got - want)) < 0.1 * 0.01
+    linear = fs.slope_frames(replace(sc, choppy=0.0), amp.copy(), 1)[0][0][fs.SIZE // 2]
+    assert np.max(np.abs(linear - want)) > 10 * np.max(np.abs(got - want))
+    bad = _run("--clips", "1", "--choppy", "2")
+    assert bad.returncode == 2 and "--choppy must be within 0-1.5; got 2" in bad.stderr
 
 
 def test_camera_effects_change_the_frames_and_not_the_scene(tmp_path) -> None:

@@ -22,7 +22,10 @@ The generator is written from the physics alone; it shares no code with ``waveal
 * With ``--choppy L`` the water moves on its orbits (first-order Lagrangian, the Gerstner
   sea; Tessendorf's "choppy waves"): each surface point is carried sideways by L times the
   linear field's displacement, so crests sharpen, troughs broaden and every wave carries
-  harmonics bound to it (:func:`_lagrangian`); L = 1 is the physical orbit.
+  harmonics bound to it (:func:`_lagrangian`); L = 1 is the physical orbit. Kinematic only:
+  a short wave keeps its frequency where the orbits compress it (the sea's would change
+  with its local wavenumber; Longuet-Higgins & Stewart 1960), and the sea is still drawn
+  on its mean plane.
 * Motion, exact, as spectral phase: a component k has phase ``k.x - (omega + k.current) t``
   and the frame at t samples the sea at ``x + drift t``: the camera's velocity over the water
   is ``drift - current``.
